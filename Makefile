@@ -1,0 +1,32 @@
+# twbr: `make demo` runs the main job, `make test` runs every test (both set up everything first).
+SHELL := /bin/bash
+SCENARIO ?= step
+RUN := tools/run.sh
+
+.PHONY: all setup test unit e2e demo bench lint clean
+all: setup
+
+setup:
+	@bash tools/bootstrap.sh
+
+test: setup
+	@$(RUN) python -m pytest -q
+
+unit: setup
+	@$(RUN) python -m pytest -q -m "not e2e"
+
+e2e: setup
+	@$(RUN) python -m pytest -q -m e2e
+
+demo: setup
+	@$(RUN) python tools/demo.py
+
+bench: setup
+	@$(RUN) python benchmarks/bench_dynamics.py
+	@$(RUN) python benchmarks/bench_lockstep.py
+
+lint: setup
+	@$(RUN) ruff check src test tools benchmarks
+
+clean:
+	rm -rf build install log

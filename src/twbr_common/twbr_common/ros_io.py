@@ -1,0 +1,26 @@
+"""QoS profiles of the interface contract, and stamp conversions."""
+
+from __future__ import annotations
+
+from builtin_interfaces.msg import Time
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+
+# Sensor streams (odom, imu, joint_states) are subscribed best effort: that matches reliable and
+# best-effort publishers alike (real drivers differ). Our publishers of them are reliable.
+SENSOR_SUB_QOS = qos_profile_sensor_data
+SENSOR_PUB_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+# Commands and world topics are reliable.
+COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+WORLD_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def to_stamp(nanoseconds: int) -> Time:
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+def stamp_ns(stamp: Time) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def stamp_seconds(stamp: Time) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9

@@ -1,0 +1,91 @@
+"""Declare a spec table on an rclpy node, with descriptors, and refuse bad values at start-up."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterable
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rclpy.exceptions import (
+    InvalidParameterTypeException,
+    InvalidParameterValueException,
+    ParameterException,
+)
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from twbr_common.params import ConfigError, ParamSpec
+
+EXIT_CONFIG_ERROR = 2
+
+_TYPES = {
+    bool: ParameterType.PARAMETER_BOOL,
+    int: ParameterType.PARAMETER_INTEGER,
+    float: ParameterType.PARAMETER_DOUBLE,
+    str: ParameterType.PARAMETER_STRING,
+    list: ParameterType.PARAMETER_DOUBLE_ARRAY,
+}
+
+
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    d = ParameterDescriptor(
+        name=spec.name,
+        type=_TYPES[spec.kind],
+        description=spec.describe(),
+        read_only=True,
+    )
+    # rclpy enforces inclusive ranges only; open bounds are checked by spec.validate afterwards.
+    if spec.kind is float and spec.low is not None and spec.high is not None:
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high))]
+    elif spec.kind is int and spec.low is not None and spec.high is not None:
+        d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=1)]
+    return d
+
+
+def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[str, Any]:
+    """Declare every spec (as `prefix + name`) and return the validated values by spec name."""
+    values: dict[str, Any] = {}
+    for spec in specs:
+        name = prefix + spec.name
+        shown = ParamSpec(**{**spec.__dict__, "name": name})
+        default = list(spec.default) if spec.kind is list else spec.default
+        try:
+            param = node.declare_parameter(name, default, descriptor(shown))
+        except (InvalidParameterTypeException, InvalidParameterValueException, ParameterException) as e:
+            override = node._parameter_overrides.get(name)
+            value = override.value if override is not None else "?"
+            raise ConfigError(
+                f"invalid parameter '{name}' = {value!r}: must be {shown.range_text()}"
+                f" ({type(e).__name__})"
+            ) from None
+        values[spec.name] = shown.validate(param.value)
+    return values
+
+
+def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = None) -> int:
+    """Init, spin until shutdown, and turn a configuration error into one FATAL line and exit code 2.
+
+    A node with a `run()` method drives its own loop (the lockstep simulator); others are spun.
+    """
+    rclpy.init(args=argv if argv is not None else sys.argv)
+    node = None
+    code = 0
+    try:
+        node = make_node()
+        if hasattr(node, "run"):
+            node.run()
+        else:
+            rclpy.spin(node)
+    except ConfigError as e:
+        rclpy.logging.get_logger(name).fatal(f"refusing to start: {e}")
+        code = EXIT_CONFIG_ERROR
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.try_shutdown()
+    return code

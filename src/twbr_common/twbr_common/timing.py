@@ -1,0 +1,19 @@
+"""Decimation of a fast loop into slower publications (tf, world topics, markers)."""
+
+from __future__ import annotations
+
+
+class Decimator:
+    """`due(t)` is true once per period of sim or wall time t; a late call does not queue up a burst."""
+
+    def __init__(self, rate: float) -> None:
+        if not rate > 0.0:
+            raise ValueError("rate must be > 0")
+        self.period = 1.0 / rate
+        self._next: float | None = None
+
+    def due(self, t: float) -> bool:
+        if self._next is not None and t + 1e-12 < self._next:
+            return False
+        self._next = t + self.period if self._next is None else max(self._next + self.period, t)
+        return True

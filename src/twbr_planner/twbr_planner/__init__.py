@@ -1,0 +1,1 @@
+"""Artificial-potential-field planner (issue 5 fills this package)."""

@@ -1,0 +1,1 @@
+"""Simulated TWBR: dynamics, motors, IMU, world, and the sim_node / world_node adapters."""

@@ -1,0 +1,82 @@
+"""The robot's physical and motor parameters (dynamics.md), as specs and as the array the kernels take.
+
+The kernels in `dynamics` are compiled with numba and take the parameters as one float64 vector
+(or one row per robot in a batch); `P_*` are its indices, in the order of ROBOT_SPECS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from twbr_common.params import ConfigError, ParamSpec, validate_all
+
+ROBOT_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("gravity", 9.81, "gravitational acceleration g", "m/s^2", 0.0, 100.0),
+    ParamSpec("wheel_radius", 0.10, "wheel radius r", "m", 0.0, 5.0, low_open=True),
+    ParamSpec("wheel_separation", 0.40, "distance between the wheels d", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("com_height", 0.30, "axle to body centre of mass l", "m", 0.0, 10.0),
+    ParamSpec("body_mass", 12.0, "body mass m_B", "kg", 0.0, 1e4, low_open=True),
+    ParamSpec("wheel_mass", 1.0, "mass of one wheel m_W", "kg", 0.0, 1e3, low_open=True),
+    ParamSpec("wheel_inertia", 0.005, "wheel inertia about its axle J", "kg*m^2", 0.0, 1e3),
+    ParamSpec("wheel_yaw_inertia", 0.0027, "wheel inertia about the vertical axis K", "kg*m^2", 0.0, 1e3),
+    ParamSpec("body_inertia_roll", 0.49, "body inertia about x at its centre of mass I_1", "kg*m^2", 0.0, 1e4),
+    ParamSpec("body_inertia_pitch", 0.40, "body inertia about y at its centre of mass I_2", "kg*m^2", 0.0, 1e4),
+    ParamSpec("body_inertia_yaw", 0.17, "body inertia about z at its centre of mass I_3", "kg*m^2", 0.0, 1e4),
+    ParamSpec("wheel_friction", 0.01, "viscous friction between wheel and body c_alpha", "N*m*s/rad", 0.0, 100.0),
+    ParamSpec("motor_constant", 0.05, "motor torque and back-EMF constant k", "N*m/A", 0.0, 10.0, low_open=True),
+    ParamSpec("gear_ratio", 20.0, "gear ratio N (motor turns per wheel turn)", "", 0.0, 1e4, low_open=True),
+    ParamSpec("armature_resistance", 0.6, "armature resistance R", "ohm", 0.0, 1e3, low_open=True),
+    ParamSpec("armature_inductance", 0.0012, "armature inductance L", "H", 0.0, 10.0, low_open=True),
+    ParamSpec("supply_voltage", 24.0, "motor driver supply voltage V_max", "V", 0.0, 1e3, low_open=True),
+    ParamSpec("current_limit", 15.0, "motor driver current limit I_max", "A", 0.0, 1e3, low_open=True),
+    ParamSpec("current_loop_gain", 1.2, "proportional gain k_i of the driver's current loop", "V/A", 0.0, 1e4),
+    ParamSpec("robot_radius", 0.30, "footprint radius for collision checks", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("fall_limit", 0.8, "|pitch| beyond which the robot has fallen", "rad", 0.0, 1.5707963267948966, low_open=True),
+)
+
+ROBOT_PARAM_NAMES: tuple[str, ...] = tuple(s.name for s in ROBOT_SPECS)
+(
+    P_G, P_R, P_D, P_L, P_MB, P_MW, P_J, P_K, P_I1, P_I2, P_I3, P_CA,
+    P_KM, P_N, P_RA, P_LA, P_VMAX, P_IMAX, P_KI, P_ROBOT_RADIUS, P_FALL,
+) = range(len(ROBOT_SPECS))
+N_PARAMS = len(ROBOT_SPECS)
+
+
+def robot_params(values: Mapping[str, Any] | None = None) -> np.ndarray:
+    """Validated parameter vector from a mapping of names (missing ones take dynamics.md's defaults)."""
+    checked = validate_all(ROBOT_SPECS, dict(values or {}))
+    p = np.array([float(checked[name]) for name in ROBOT_PARAM_NAMES])
+    check_consistent(p)
+    return p
+
+
+def check_consistent(p: np.ndarray) -> None:
+    """Refuse combinations that are each in range but make no physical sense together."""
+    # The pitch equation's effective inertia about the axle must stay positive at every pitch.
+    a = p[P_MB] + 2 * p[P_MW] + 2 * p[P_J] / p[P_R] ** 2
+    b = p[P_MB] * p[P_L]
+    c2 = p[P_I2] + p[P_MB] * p[P_L] ** 2
+    if a * c2 - b * b <= 0.0:
+        raise ConfigError("inconsistent parameters: body_inertia_pitch must be > 0 when com_height > 0")
+    if p[P_ROBOT_RADIUS] < p[P_D] / 2:
+        raise ConfigError(
+            f"invalid parameter 'robot_radius' = {p[P_ROBOT_RADIUS]:g}: must be >= wheel_separation/2"
+            f" = {p[P_D] / 2:g} m (the wheels must be inside the footprint)"
+        )
+
+
+def params_dict(p: np.ndarray) -> dict[str, float]:
+    return {name: float(p[i]) for i, name in enumerate(ROBOT_PARAM_NAMES)}
+
+
+def wheel_torque_limit(p: np.ndarray) -> float:
+    """Largest wheel torque the driver can command: N k I_max [N*m]."""
+    return float(p[P_N] * p[P_KM] * p[P_IMAX])
+
+
+def top_wheel_speed(p: np.ndarray) -> float:
+    """Wheel speed at which back-EMF equals the supply voltage: V_max / (N k) [rad/s]."""
+    return float(p[P_VMAX] / (p[P_N] * p[P_KM]))

@@ -1,0 +1,221 @@
+"""Scenario files (config/scenarios/*.yaml): the world set-up, time limit and command profile of a run.
+
+Every field is checked against a range; a malformed file is refused with one message naming the field
+by its path (e.g. `obstacles[1].radius`) and its valid range. Angles may be written as numbers [rad]
+or as multiples of pi such as `3pi/4`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from twbr_common.params import ConfigError, ParamSpec
+
+_PI_RE = re.compile(r"^\s*(-?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+\.?\d*))?\s*$")
+
+
+def parse_angle(value: Any, where: str) -> Any:
+    """Numbers pass through; strings like '3pi/4', '-pi/2', 'pi' become radians."""
+    if isinstance(value, str):
+        m = _PI_RE.match(value)
+        if not m:
+            raise ConfigError(f"invalid field '{where}' = {value!r}: must be a number [rad] or like '3pi/4'")
+        coef = m.group(1)
+        k = -1.0 if coef == "-" else (1.0 if coef in ("", "+") else float(coef))
+        return k * math.pi / (float(m.group(2)) if m.group(2) else 1.0)
+    return value
+
+
+@dataclass(frozen=True)
+class TargetSpec:
+    x: float
+    y: float
+    heading: float
+    speed: float
+    max_yaw_rate: float
+    turn_interval: float
+    capture_radius: float
+
+
+@dataclass(frozen=True)
+class ObstacleSpec:
+    id: int
+    x: float
+    y: float
+    vx: float
+    vy: float
+    radius: float
+
+
+@dataclass(frozen=True)
+class CommandStep:
+    """From time t on, the scenario asks for forward speed v [m/s] and yaw rate w [rad/s]."""
+
+    t: float
+    v: float
+    w: float
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    duration: float
+    seed: int
+    start_x: float = 0.0
+    start_y: float = 0.0
+    start_yaw: float = 0.0
+    start_pitch: float = 0.0
+    target: TargetSpec | None = None
+    obstacles: tuple[ObstacleSpec, ...] = ()
+    commands: tuple[CommandStep, ...] = ()
+    end_on_target: bool = False
+    source: str = field(default="", compare=False)
+
+
+_BIG = 1e6
+_TOP = (
+    ParamSpec("duration", 60.0, "time limit of the run", "s", 0.0, 86400.0, low_open=True),
+    ParamSpec("seed", 0, "seed of the target's random turns (a node's seed parameter overrides it)", "", 0, 2**31 - 1),
+    ParamSpec("end_on_target", False, "end the run when the target is reached"),
+)
+_ROBOT = (
+    ParamSpec("x", 0.0, "start x in odom", "m", -_BIG, _BIG),
+    ParamSpec("y", 0.0, "start y in odom", "m", -_BIG, _BIG),
+    ParamSpec("yaw", 0.0, "start heading", "rad", -math.pi, math.pi),
+    ParamSpec("pitch", 0.0, "start pitch", "rad", -0.5, 0.5),
+)
+_TARGET = (
+    ParamSpec("position", [0.0, 0.0], "start position [x, y] in odom", "m"),
+    ParamSpec("heading", 0.0, "start heading", "rad", -2 * math.pi, 2 * math.pi),
+    ParamSpec("speed", 0.0, "constant speed", "m/s", 0.0, 10.0),
+    ParamSpec("max_yaw_rate", 0.0, "yaw rate drawn uniformly in +-max_yaw_rate", "rad/s", 0.0, 20.0),
+    ParamSpec("turn_interval", 1.0, "time between yaw-rate draws", "s", 0.0, 1e4, low_open=True),
+    ParamSpec("capture_radius", 0.5, "distance at which the target counts as reached", "m", 0.0, 100.0, low_open=True),
+)
+_OBSTACLE = (
+    ParamSpec("id", 0, "obstacle id (unique)", "", 0, 2**31 - 1),
+    ParamSpec("position", [0.0, 0.0], "start position [x, y] in odom", "m"),
+    ParamSpec("radius", 1.0, "radius", "m", 0.0, 1000.0, low_open=True),
+    ParamSpec("speed", 0.0, "constant speed", "m/s", 0.0, 100.0),
+    ParamSpec("heading", 0.0, "direction of motion", "rad", -2 * math.pi, 2 * math.pi),
+)
+_COMMAND = (
+    ParamSpec("t", 0.0, "time from which the command holds", "s", 0.0, 86400.0),
+    ParamSpec("v", 0.0, "forward speed reference", "m/s", -5.0, 5.0),
+    ParamSpec("w", 0.0, "yaw-rate reference", "rad/s", -10.0, 10.0),
+)
+
+
+def _section(specs: tuple[ParamSpec, ...], raw: Any, where: str, required: tuple[str, ...] = ()) -> dict[str, Any]:
+    if raw is None:
+        raw = {}
+    if not isinstance(raw, dict):
+        raise ConfigError(f"invalid field '{where}': must be a mapping, got {type(raw).__name__}")
+    known = {s.name: s for s in specs}
+    for key in raw:
+        if key not in known:
+            path = f"{where}.{key}" if where else str(key)
+            raise ConfigError(f"unknown field '{path}': known fields are {', '.join(known)}")
+    for key in required:
+        if key not in raw:
+            raise ConfigError(f"missing field '{where}.{key}': {known[key].describe()}")
+    out = {}
+    for s in specs:
+        path = f"{where}.{s.name}" if where else s.name
+        value = raw.get(s.name, s.default)
+        if s.name in ("heading", "yaw", "pitch"):
+            value = parse_angle(value, path)
+        named = ParamSpec(**{**s.__dict__, "name": path})
+        checked = named.validate(value)
+        if s.name == "position" and len(checked) != 2:
+            raise ConfigError(f"invalid field '{path}' = {value!r}: must be [x, y] in m")
+        if s.name == "position" and any(abs(c) > _BIG for c in checked):
+            raise ConfigError(f"invalid field '{path}' = {value!r}: coordinates must be within +-{_BIG:g} m")
+        out[s.name] = checked
+    return out
+
+
+def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenario:
+    if not isinstance(raw, dict):
+        raise ConfigError(f"scenario {source or name}: must be a mapping of fields")
+    raw = dict(raw)
+    name = str(raw.pop("name", name))
+    description = str(raw.pop("description", ""))
+    robot_raw = raw.pop("robot", None)
+    target_raw = raw.pop("target", None)
+    obstacles_raw = raw.pop("obstacles", None) or []
+    commands_raw = raw.pop("commands", None) or []
+    top = _section(_TOP, raw, "")
+    robot = _section(_ROBOT, robot_raw, "robot")
+    target = None
+    if target_raw is not None:
+        t = _section(_TARGET, target_raw, "target", required=("position",))
+        target = TargetSpec(
+            t["position"][0], t["position"][1], t["heading"], t["speed"],
+            t["max_yaw_rate"], t["turn_interval"], t["capture_radius"],
+        )
+    if not isinstance(obstacles_raw, list):
+        raise ConfigError("invalid field 'obstacles': must be a list of obstacles")
+    obstacles = []
+    for k, o in enumerate(obstacles_raw):
+        ob = _section(_OBSTACLE, o, f"obstacles[{k}]", required=("position", "radius"))
+        if "id" not in (o or {}):
+            ob["id"] = k + 1
+        obstacles.append(
+            ObstacleSpec(
+                ob["id"], ob["position"][0], ob["position"][1],
+                ob["speed"] * math.cos(ob["heading"]), ob["speed"] * math.sin(ob["heading"]), ob["radius"],
+            )
+        )
+    ids = [o.id for o in obstacles]
+    if len(set(ids)) != len(ids):
+        raise ConfigError(f"invalid field 'obstacles': ids must be unique, got {ids}")
+    if not isinstance(commands_raw, list):
+        raise ConfigError("invalid field 'commands': must be a list of {t, v, w}")
+    commands = []
+    for k, c in enumerate(commands_raw):
+        cm = _section(_COMMAND, c, f"commands[{k}]", required=("t",))
+        if commands and cm["t"] <= commands[-1].t:
+            raise ConfigError(f"invalid field 'commands[{k}].t' = {cm['t']}: times must increase")
+        commands.append(CommandStep(cm["t"], cm["v"], cm["w"]))
+    if top["end_on_target"] and target is None:
+        raise ConfigError("invalid field 'end_on_target' = True: the scenario has no target")
+    return Scenario(
+        name=name, description=description, duration=top["duration"], seed=top["seed"],
+        start_x=robot["x"], start_y=robot["y"], start_yaw=robot["yaw"], start_pitch=robot["pitch"],
+        target=target, obstacles=tuple(obstacles), commands=tuple(commands),
+        end_on_target=top["end_on_target"], source=source,
+    )
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario file; every problem is a ConfigError naming the file and field."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as e:
+        raise ConfigError(f"scenario file {path}: cannot be read ({e.strerror})") from None
+    except yaml.YAMLError as e:
+        raise ConfigError(f"scenario file {path}: not valid YAML ({e})") from None
+    try:
+        return parse_scenario(raw, name=path.stem, source=str(path))
+    except ConfigError as e:
+        raise ConfigError(f"scenario file {path}: {e}") from None
+
+
+def command_at(scenario: Scenario, t: float) -> tuple[float, float]:
+    """The (v, w) the scenario's command profile asks for at time t (zero before its first step)."""
+    v = w = 0.0
+    for step in scenario.commands:
+        if t + 1e-12 >= step.t:
+            v, w = step.v, step.w
+        else:
+            break
+    return v, w

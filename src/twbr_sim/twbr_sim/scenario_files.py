@@ -1,0 +1,39 @@
+"""Where scenario files are found: a path as given, or a name in the installed config/scenarios."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+from twbr_common.params import ConfigError
+
+
+def scenario_dirs() -> list[Path]:
+    """$TWBR_CONFIG_DIR/scenarios first (a checkout's config/), then the installed share directory."""
+    dirs = []
+    if os.environ.get("TWBR_CONFIG_DIR"):
+        dirs.append(Path(os.environ["TWBR_CONFIG_DIR"]) / "scenarios")
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+        with contextlib.suppress(PackageNotFoundError):
+            dirs.append(Path(get_package_share_directory("twbr_sim")) / "config" / "scenarios")
+    except ImportError:
+        pass
+    return dirs
+
+
+def find_scenario(value: str) -> Path:
+    path = Path(value)
+    if path.suffix in (".yaml", ".yml") or os.sep in value:
+        if path.is_file():
+            return path
+        raise ConfigError(f"invalid parameter 'scenario' = {value!r}: no such file")
+    for d in scenario_dirs():
+        candidate = d / f"{value}.yaml"
+        if candidate.is_file():
+            return candidate
+    known = sorted({p.stem for d in scenario_dirs() if d.is_dir() for p in d.glob("*.yaml")})
+    choices = ", ".join(known) or "(none installed)"
+    raise ConfigError(f"invalid parameter 'scenario' = {value!r}: must be a scenario file or one of {choices}")

@@ -1,0 +1,255 @@
+"""sim_node: the simulated robot (and by default its world) on the interface contract's topics.
+
+Subscribes wheel_torque_cmd; publishes clock, odom, imu, joint_states, /tf, sim_status and, hosting the
+world, target, obstacles, world_status and world_markers. In lockstep it publishes the state at step k
+and integrates to k+1 only once the command stamped with step k's time has arrived (or a wall-clock
+timeout has passed, which it counts); in realtime it steps on a wall-clock timer.
+"""
+
+from __future__ import annotations
+
+import time
+
+from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu, JointState
+from tf2_msgs.msg import TFMessage
+from visualization_msgs.msg import MarkerArray
+
+from twbr_common.geometry import quaternion_from_rpy
+from twbr_common.guard import Verdict
+from twbr_common.params import ConfigError
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, WORLD_QOS, stamp_ns, stamp_seconds, to_stamp
+from twbr_common.ros_params import declare, run_node
+from twbr_common.timing import Decimator
+from twbr_msgs.msg import ObstacleArray, SimStatus, WheelTorques, WorldStatus
+from twbr_sim import dynamics as dyn
+from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
+from twbr_sim.simulator import SIM_SPECS, Simulator
+from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
+
+WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
+
+
+class SimNode(Node):
+    def __init__(self) -> None:
+        super().__init__("sim_node")
+        robot = robot_params(declare(self, ROBOT_SPECS))
+        cfg = declare(self, SIM_SPECS)
+        if self.get_parameter("use_sim_time").value:
+            raise ConfigError("invalid parameter 'use_sim_time' = True: sim_node is the clock; must be false")
+        scenario = load_scenario(find_scenario(cfg["scenario"])) if cfg["scenario"] else None
+        seed = cfg["seed"] if cfg["seed"] >= 0 else (scenario.seed if scenario else 0)
+        self.cfg = cfg
+        self.sim = Simulator(robot, cfg, scenario, seed)
+        self.lockstep = cfg["mode"] == "lockstep"
+        self._frame_odom = cfg["odom_frame"]
+        self._frame_base = cfg["base_frame"]
+        self._step_ns = round(1e9 / cfg["physics_rate"])
+        self._pending_ns: int | None = None
+        self._matched = False
+        self._commands_received = 0
+        self._status_flags: tuple | None = None
+
+        self.pub_clock = self.create_publisher(Clock, "/clock", 10)
+        self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
+        self.pub_imu = self.create_publisher(Imu, "imu", SENSOR_PUB_QOS)
+        self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
+        self.pub_tf = self.create_publisher(TFMessage, "/tf", 100)
+        self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_QOS)
+        self.hosting_world = scenario is not None and cfg["host_world"]
+        if self.hosting_world:
+            self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
+            self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
+            self.pub_world_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
+            self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
+        self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
+        self._tf_due = Decimator(cfg["tf_rate"])
+        self._world_due = Decimator(cfg["world_rate"])
+        self._marker_due = Decimator(cfg["marker_rate"])
+        self.get_logger().info(
+            f"{cfg['mode']} simulation at {cfg['physics_rate']:g} Hz, state every"
+            f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
+            f" seed {seed}"
+        )
+
+    # --- inputs -------------------------------------------------------------------------------
+    def _on_command(self, msg: WheelTorques) -> None:
+        self._commands_received += 1
+        result = self.sim.offer_command(stamp_seconds(msg.header.stamp), msg.left, msg.right)
+        if result.verdict is not Verdict.ACCEPTED:
+            self.get_logger().warning(
+                f"dropped wheel_torque_cmd ({result.verdict.value}): left={msg.left} right={msg.right}",
+                throttle_duration_sec=1.0,
+            )
+            return
+        if result.saturated:
+            self.get_logger().warning(
+                f"wheel_torque_cmd past the motor limit {self.sim.torque_limit:g} N*m: clipped",
+                throttle_duration_sec=1.0,
+            )
+        if self._pending_ns is not None and stamp_ns(msg.header.stamp) == self._pending_ns:
+            self._matched = True
+
+    # --- outputs ------------------------------------------------------------------------------
+    def publish_state(self) -> None:
+        sim = self.sim
+        now_ns = sim.step_count * self._step_ns
+        stamp = to_stamp(now_ns)
+        self.pub_clock.publish(Clock(clock=stamp))
+        s = sim.state
+        q = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
+
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.header.frame_id = self._frame_odom
+        odom.child_frame_id = self._frame_base
+        pose = odom.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = s[dyn.S_XC], s[dyn.S_YC], sim.p[P_R]
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = q
+        odom.twist.twist.linear.x = s[dyn.S_XD]
+        odom.twist.twist.angular.y = s[dyn.S_THD]
+        odom.twist.twist.angular.z = s[dyn.S_PSID]
+        self.pub_odom.publish(odom)
+
+        reading = sim.imu()
+        imu = Imu()
+        imu.header.stamp = stamp
+        imu.header.frame_id = self._frame_base
+        iq = quaternion_from_rpy(reading.roll, reading.pitch, reading.yaw)
+        imu.orientation.x, imu.orientation.y, imu.orientation.z, imu.orientation.w = iq
+        av, la = reading.angular_velocity, reading.linear_acceleration
+        imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = av
+        imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z = la
+        cfg = self.cfg
+        for cov, std in (
+            (imu.orientation_covariance, cfg["imu.orientation_noise_std"]),
+            (imu.angular_velocity_covariance, cfg["imu.gyro_noise_std"]),
+            (imu.linear_acceleration_covariance, cfg["imu.accel_noise_std"]),
+        ):
+            cov[0] = cov[4] = cov[8] = std * std
+        self.pub_imu.publish(imu)
+
+        joints = JointState()
+        joints.header.stamp = stamp
+        joints.name = WHEEL_JOINTS
+        joints.position = [float(s[dyn.S_GL]), float(s[dyn.S_GR])]
+        joints.velocity = list(sim.wheel_rates())
+        joints.effort = list(sim.wheel_torques())
+        self.pub_joints.publish(joints)
+
+        t = sim.time
+        if self._tf_due.due(t):
+            tf = TransformStamped()
+            tf.header.stamp = stamp
+            tf.header.frame_id = self._frame_odom
+            tf.child_frame_id = self._frame_base
+            tr = tf.transform.translation
+            tr.x, tr.y, tr.z = pose.position.x, pose.position.y, pose.position.z
+            tf.transform.rotation = pose.orientation
+            self.pub_tf.publish(TFMessage(transforms=[tf]))
+        flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
+        if self._world_due.due(t) or flags != self._status_flags:
+            self._status_flags = flags
+            self.pub_status.publish(self.status_message(stamp))
+            if self.hosting_world:
+                self.publish_world(stamp)
+        if self.hosting_world and self._marker_due.due(t):
+            world = sim.world
+            capture = world.scenario.target.capture_radius if world.scenario.target else 0.0
+            self.pub_markers.publish(world_markers(world.target(), world.obstacles(), capture, stamp, self._frame_odom))
+        self._pending_ns = now_ns
+
+    def status_message(self, stamp) -> SimStatus:
+        sim = self.sim
+        msg = SimStatus()
+        msg.header.stamp = stamp
+        msg.header.frame_id = self._frame_base
+        msg.fallen = sim.fallen
+        msg.pitch = float(sim.state[dyn.S_TH])
+        msg.torque_saturated = sim.torque_saturated
+        msg.command_stale = sim.command_stale
+        msg.commands_received = self._commands_received
+        msg.commands_rejected = sim.guard.rejected_total
+        msg.lockstep_timeouts = sim.lockstep_timeouts
+        msg.steps = sim.step_count
+        return msg
+
+    def publish_world(self, stamp) -> None:
+        world = self.sim.world
+        target = world.target()
+        if target is not None:
+            self.pub_target.publish(target_message(target, stamp, self._frame_odom))
+        self.pub_obstacles.publish(obstacles_message(world.obstacles(), stamp, self._frame_odom))
+        assessment = self.sim.assess()
+        self.pub_world_status.publish(
+            world_status_message(assessment, world.collision_count, stamp, self._frame_odom)
+        )
+
+    # --- stepping -----------------------------------------------------------------------------
+    def _finished(self) -> bool:
+        duration = self.cfg["duration"]
+        return duration > 0.0 and self.sim.time >= duration - 1e-12
+
+    def run(self) -> None:
+        if self.lockstep:
+            self._run_lockstep()
+        else:
+            self._run_realtime()
+        self.get_logger().info(
+            f"stopped at t = {self.sim.time:.3f} s after {self.sim.step_count} steps,"
+            f" {self.sim.lockstep_timeouts} lockstep timeouts"
+        )
+
+    def _run_lockstep(self) -> None:
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        timeout = self.cfg["lockstep_timeout"]
+        waiting_first = self.cfg["wait_for_first_command"]
+        self.publish_state()
+        while self.context.ok() and not self._finished():
+            deadline = time.monotonic() + timeout
+            while not self._matched and self.context.ok():
+                remaining = deadline - time.monotonic()
+                if remaining <= 0.0:
+                    break
+                executor.spin_once(timeout_sec=remaining)
+            if not self._matched:
+                if waiting_first and self.sim.guard.last_stamp is None:
+                    self.publish_state()  # nobody has answered yet: offer the initial state again
+                    continue
+                self.sim.lockstep_timeouts += 1
+            waiting_first = False
+            self._matched = False
+            self.sim.advance(self.sim.steps_per_publish)
+            self.publish_state()
+        executor.remove_node(self)
+
+    def _run_realtime(self) -> None:
+        period = 1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"])
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        self.publish_state()
+        next_tick = time.monotonic() + period
+        while self.context.ok() and not self._finished():
+            executor.spin_once(timeout_sec=max(0.0, next_tick - time.monotonic()))
+            now = time.monotonic()
+            if now >= next_tick:
+                self.sim.advance(self.sim.steps_per_publish)
+                self.publish_state()
+                # Keep the schedule, but never try to catch up more than one period after a stall.
+                next_tick = max(next_tick + period, now - period)
+        executor.remove_node(self)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node("sim_node", SimNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,147 @@
+"""The simulated robot side of the graph, without ROS: dynamics + motors + IMU + world + command admission.
+
+sim_node is a thin adapter around this class; tests and headless runs drive it directly. Time is kept
+as an integer count of physics steps so that sim time never drifts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from twbr_common.guard import InputGuard, Verdict
+from twbr_common.params import ConfigError, ParamSpec
+from twbr_sim import dynamics as dyn
+from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
+from twbr_sim.robot_params import P_FALL, P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.scenario import Scenario
+from twbr_sim.world import Assessment, World
+
+SIM_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("physics_rate", 1000.0, "rate of the RK4 integration of dynamics and motors", "Hz", 10.0, 100000.0),
+    ParamSpec(
+        "publish_rate", 200.0,
+        "rate of odom, imu, joint_states and clock; in lockstep, the rate of state/command exchanges"
+        " (set it to the controller's rate); must divide physics_rate", "Hz", 1.0, 10000.0,
+    ),
+    ParamSpec("mode", "lockstep", "lockstep: step only on the command computed from the last state;"
+              " realtime: step on a wall-clock timer", choices=("lockstep", "realtime")),
+    ParamSpec("real_time_factor", 1.0, "realtime mode: simulated seconds per wall-clock second", "", 0.01, 100.0),
+    ParamSpec("lockstep_timeout", 0.5, "lockstep: wall time to wait for the command before stepping without"
+              " it (counted as a timeout)", "s", 0.001, 60.0),
+    ParamSpec("wait_for_first_command", True, "lockstep: hold sim time at 0 until the first command arrives,"
+              " so a controller started later finds the robot upright"),
+    ParamSpec("command_timeout", 0.1, "a wheel_torque_cmd older than this (sim time) is stale: zero torque", "s",
+              0.001, 10.0),
+    ParamSpec("duration", 0.0, "sim time after which the node stops by itself; 0 runs until stopped", "s",
+              0.0, 1e7),
+    ParamSpec("scenario", "", "scenario file: a path, or a name in share/twbr_sim/config/scenarios;"
+              " empty: the robot alone at the origin"),
+    ParamSpec("host_world", True, "publish the scenario's target and obstacles (false when world_node runs)"),
+    ParamSpec("seed", -1, "seed of the target's turns and the IMU noise; -1 takes the scenario's", "", -1,
+              2**31 - 1),
+    ParamSpec("world_rate", 20.0, "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
+    ParamSpec("marker_rate", 5.0, "rate of the RViz world markers", "Hz", 0.1, 100.0),
+    ParamSpec("tf_rate", 50.0, "rate of the odom -> base_link transform", "Hz", 0.1, 1000.0),
+    ParamSpec("odom_frame", "odom", "fixed frame of odom, target and obstacles"),
+    ParamSpec("base_frame", "base_link", "robot frame (axle centre, pitched with the body)"),
+    *IMU_SPECS,
+)
+
+
+@dataclass(frozen=True)
+class CommandResult:
+    verdict: Verdict
+    saturated: bool = False
+
+
+def steps_per_publish(physics_rate: float, publish_rate: float) -> int:
+    ratio = physics_rate / publish_rate
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > 1e-9 * ratio:
+        raise ConfigError(
+            f"invalid parameter 'publish_rate' = {publish_rate:g}: must divide physics_rate"
+            f" = {physics_rate:g} Hz into a whole number of steps"
+        )
+    return n
+
+
+class Simulator:
+    def __init__(self, robot: np.ndarray, settings: dict, scenario: Scenario | None, seed: int) -> None:
+        self.p = robot
+        self.h = 1.0 / settings["physics_rate"]
+        self.steps_per_publish = steps_per_publish(settings["physics_rate"], settings["publish_rate"])
+        self.torque_limit = wheel_torque_limit(robot)
+        self.guard = InputGuard(settings["command_timeout"])
+        self.scenario = scenario
+        self.world = World(scenario, robot[P_ROBOT_RADIUS], seed) if scenario is not None else None
+        self.imu_model = ImuModel(settings, seed)
+        sc = scenario
+        self.state = dyn.initial_state(
+            sc.start_x if sc else 0.0, sc.start_y if sc else 0.0,
+            sc.start_yaw if sc else 0.0, sc.start_pitch if sc else 0.0,
+        )
+        self._work = dyn.new_work()
+        self.step_count = 0
+        self._command = (0.0, 0.0)
+        self.torque_saturated = False
+        self.fallen = False
+        self.lockstep_timeouts = 0
+
+    @property
+    def time(self) -> float:
+        return self.step_count * self.h
+
+    def offer_command(self, stamp: float, left: float, right: float) -> CommandResult:
+        """Admit a wheel_torque_cmd; NaN/inf, unstamped and out-of-order ones never reach the motors."""
+        verdict = self.guard.offer(stamp, (left, right), self.time)
+        if verdict is not Verdict.ACCEPTED:
+            return CommandResult(verdict)
+        lim = self.torque_limit
+        clipped = (min(max(left, -lim), lim), min(max(right, -lim), lim))
+        self.torque_saturated = clipped != (left, right)
+        self._command = clipped
+        return CommandResult(verdict, self.torque_saturated)
+
+    @property
+    def command_stale(self) -> bool:
+        return self.guard.is_stale(self.time)
+
+    def applied_command(self) -> tuple[float, float]:
+        """The torque command the motor drivers get now: the last admitted one, or zero when stale."""
+        return (0.0, 0.0) if self.command_stale else self._command
+
+    def advance(self, n_steps: int) -> None:
+        """Integrate n_steps physics steps; a fallen robot lies still (no ground contact is modelled)."""
+        for _ in range(n_steps):
+            if not self.fallen:
+                left, right = self.applied_command()
+                dyn.rk4_step(self.p, self.state, left, right, self.h, self._work)
+                if abs(self.state[dyn.S_TH]) > self.p[P_FALL]:
+                    self.fallen = True
+                    self.state[[dyn.S_XD, dyn.S_THD, dyn.S_PSID, dyn.S_IL, dyn.S_IR]] = 0.0
+            self.step_count += 1
+        if self.world is not None:
+            self.world.advance_to(self.time)
+
+    def derivative(self) -> np.ndarray:
+        if self.fallen:
+            return np.zeros(dyn.N_STATE)
+        left, right = self.applied_command()
+        return dyn.state_derivative(self.p, self.state, left, right)
+
+    def imu(self) -> ImuReading:
+        return self.imu_model.read(self.p, self.state, self.derivative())
+
+    def wheel_torques(self) -> tuple[float, float]:
+        return dyn.wheel_torques(self.p, self.state)
+
+    def wheel_rates(self) -> tuple[float, float]:
+        left, right = dyn.wheel_rates(self.p, self.state[dyn.S_XD], self.state[dyn.S_PSID])
+        return float(left), float(right)
+
+    def assess(self) -> Assessment | None:
+        if self.world is None:
+            return None
+        return self.world.assess(self.state[dyn.S_XC], self.state[dyn.S_YC])

@@ -1,0 +1,102 @@
+"""world_node: the scenario's target and obstacles alone, for use beside a real robot's driver.
+
+Publishes target, obstacles, world_markers and (while odometry is fresh) world_status. With
+use_sim_time the world's time is the clock's, so it matches a simulator hosting the same scenario;
+on wall time it starts when the node does.
+"""
+
+from __future__ import annotations
+
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from visualization_msgs.msg import MarkerArray
+
+from twbr_common.guard import InputGuard, Verdict
+from twbr_common.params import ParamSpec
+from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
+from twbr_common.ros_params import declare, run_node
+from twbr_common.timing import Decimator
+from twbr_msgs.msg import ObstacleArray, WorldStatus
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
+from twbr_sim.world import World
+from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
+
+WORLD_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("scenario", "dynamic_obstacles", "scenario file: a path, or a name in share/twbr_sim/config/scenarios"),
+    ParamSpec("seed", -1, "seed of the target's turns; -1 takes the scenario's", "", -1, 2**31 - 1),
+    ParamSpec("rate", 20.0, "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
+    ParamSpec("marker_rate", 5.0, "rate of the RViz world markers", "Hz", 0.1, 100.0),
+    ParamSpec("robot_radius", 0.30, "footprint radius of the robot for collision checks", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("odom_timeout", 0.5, "odometry older than this is not assessed (no world_status)", "s", 0.001, 60.0),
+    ParamSpec("odom_frame", "odom", "fixed frame of target and obstacles"),
+)
+
+
+class WorldNode(Node):
+    def __init__(self) -> None:
+        super().__init__("world_node")
+        cfg = declare(self, WORLD_SPECS)
+        scenario = load_scenario(find_scenario(cfg["scenario"]))
+        seed = cfg["seed"] if cfg["seed"] >= 0 else scenario.seed
+        self.world = World(scenario, cfg["robot_radius"], seed)
+        self.frame = cfg["odom_frame"]
+        self.sim_time = bool(self.get_parameter("use_sim_time").value)
+        self._t0: float | None = None
+        self._odom_guard = InputGuard(cfg["odom_timeout"])
+        self._robot_xy: tuple[float, float] | None = None
+        self._marker_due = Decimator(cfg["marker_rate"])
+        self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
+        self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
+        self.pub_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
+        self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
+        self.create_timer(1.0 / cfg["rate"], self._tick)
+        self.get_logger().info(
+            f"world of scenario {scenario.name} (seed {seed}) on {'sim' if self.sim_time else 'wall'} time"
+        )
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _world_time(self) -> float | None:
+        now = self._now()
+        if self.sim_time:
+            return now if now > 0.0 else None  # no /clock yet
+        if self._t0 is None:
+            self._t0 = now
+        return now - self._t0
+
+    def _on_odom(self, msg: Odometry) -> None:
+        p = msg.pose.pose.position
+        verdict = self._odom_guard.offer(stamp_seconds(msg.header.stamp), (p.x, p.y), self._now())
+        if verdict is Verdict.ACCEPTED:
+            self._robot_xy = (p.x, p.y)
+        else:
+            self.get_logger().warning(f"dropped odom ({verdict.value})", throttle_duration_sec=1.0)
+
+    def _tick(self) -> None:
+        t = self._world_time()
+        if t is None or t < self.world.time:
+            return
+        self.world.advance_to(t)
+        stamp = self.get_clock().now().to_msg()
+        target = self.world.target()
+        if target is not None:
+            self.pub_target.publish(target_message(target, stamp, self.frame))
+        self.pub_obstacles.publish(obstacles_message(self.world.obstacles(), stamp, self.frame))
+        if self._robot_xy is not None and not self._odom_guard.is_stale(self._now()):
+            a = self.world.assess(*self._robot_xy)
+            self.pub_status.publish(world_status_message(a, self.world.collision_count, stamp, self.frame))
+        if self._marker_due.due(t):
+            sc = self.world.scenario
+            capture = sc.target.capture_radius if sc.target else 0.0
+            self.pub_markers.publish(world_markers(target, self.world.obstacles(), capture, stamp, self.frame))
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node("world_node", WorldNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

