@@ -15,5 +15,8 @@ class Decimator:
     def due(self, t: float) -> bool:
         if self._next is not None and t + 1e-12 < self._next:
             return False
-        self._next = t + self.period if self._next is None else max(self._next + self.period, t)
+        if self._next is None or self._next + self.period <= t:
+            self._next = t + self.period  # first call, or after a stall: restart the schedule from now
+        else:
+            self._next += self.period
         return True

@@ -23,6 +23,10 @@ _PI_RE = re.compile(r"^\s*(-?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+\.?\d*))?\s*$")
 def parse_angle(value: Any, where: str) -> Any:
     """Numbers pass through; strings like '3pi/4', '-pi/2', 'pi' become radians."""
     if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            pass
         m = _PI_RE.match(value)
         if not m:
             raise ConfigError(f"invalid field '{where}' = {value!r}: must be a number [rad] or like '3pi/4'")
