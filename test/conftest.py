@@ -7,68 +7,19 @@ test fails.
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import os
-import signal
-import subprocess
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 
+from twbr_common.processes import NodeProcess, loopback_env, start_node
+
 ROOT = Path(__file__).resolve().parents[1]
-INSTALL = ROOT / "install"
 CONFIG = ROOT / "config"
 _domains = itertools.count()
-
-
-def executable(package: str, name: str) -> Path:
-    """Where `ros2 run <package> <name>` would find it."""
-    path = INSTALL / package / "lib" / package / name
-    if not path.exists():
-        pytest.fail(f"{path} is not built: run `make setup` first")
-    return path
-
-
-class NodeProcess:
-    def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str) -> None:
-        self.name = name
-        self.stdout_path = log_dir / f"{name}.out"
-        self.stderr_path = log_dir / f"{name}.err"
-        self._out = self.stdout_path.open("w")
-        self._err = self.stderr_path.open("w")
-        self.proc = subprocess.Popen(argv, env=env, stdout=self._out, stderr=self._err, start_new_session=True)
-
-    def wait(self, timeout: float) -> int:
-        return self.proc.wait(timeout=timeout)
-
-    @property
-    def stderr(self) -> str:
-        self._err.flush()
-        return self.stderr_path.read_text()
-
-    @property
-    def output(self) -> str:
-        self._out.flush()
-        self._err.flush()
-        return self.stdout_path.read_text() + self.stderr_path.read_text()
-
-    def stop(self, timeout: float = 5.0) -> int | None:
-        if self.proc.poll() is None:
-            try:
-                os.killpg(self.proc.pid, signal.SIGINT)
-                self.proc.wait(timeout=timeout)
-            except (subprocess.TimeoutExpired, ProcessLookupError):
-                pass
-        if self.proc.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.proc.pid, signal.SIGKILL)
-            self.proc.wait(timeout=timeout)
-        self._out.close()
-        self._err.close()
-        return self.proc.returncode
 
 
 @pytest.fixture
@@ -79,13 +30,7 @@ def ros_domain() -> int:
 
 @pytest.fixture
 def ros_env(ros_domain: int) -> dict[str, str]:
-    env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(ros_domain)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env.pop("ROS_STATIC_PEERS", None)
-    env["PYTHONUNBUFFERED"] = "1"
-    env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
-    return env
+    return loopback_env(ros_domain)
 
 
 @pytest.fixture
@@ -94,11 +39,8 @@ def launch(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Callable[..., No
     started: list[NodeProcess] = []
 
     def start(package: str, name: str, *ros_args: str, params: tuple[str, ...] = ()) -> NodeProcess:
-        argv = [str(executable(package, name)), "--ros-args"]
-        for p in params:
-            argv += ["--params-file", str(CONFIG / p)]
-        argv += list(ros_args)
-        proc = NodeProcess(argv, ros_env, tmp_path, f"{name}-{len(started)}")
+        args = [a for p in params for a in ("--params-file", str(CONFIG / p))] + list(ros_args)
+        proc = start_node(package, name, args, ros_env, tmp_path, f"{name}-{len(started)}")
         started.append(proc)
         return proc
 

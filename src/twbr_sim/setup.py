@@ -35,6 +35,7 @@ setup(
         "console_scripts": [
             "sim_node = twbr_sim.sim_node:main",
             "world_node = twbr_sim.world_node:main",
+            "torque_driver = twbr_sim.torque_driver:main",
         ],
     },
 )

@@ -197,14 +197,29 @@ class SimNode(Node):
         return duration > 0.0 and self.sim.time >= duration - 1e-12
 
     def run(self) -> None:
+        self._wall_start: float | None = None
+        self._exchanges = 0
         if self.lockstep:
             self._run_lockstep()
         else:
             self._run_realtime()
+        wall = time.monotonic() - self._wall_start if self._wall_start is not None else 0.0
+        rates = (
+            f"; {self._exchanges} exchanges in {wall:.3f} s wall: {self._exchanges / wall:.1f} exchanges/s,"
+            f" real-time factor {(self.sim.time - self._sim_start) / wall:.2f}" if wall > 0 else ""
+        )
         self.get_logger().info(
             f"stopped at t = {self.sim.time:.3f} s after {self.sim.step_count} steps,"
-            f" {self.sim.lockstep_timeouts} lockstep timeouts"
+            f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}"
         )
+
+    def _step_and_publish(self) -> None:
+        if self._wall_start is None:
+            self._wall_start = time.monotonic()
+            self._sim_start = self.sim.time
+        self.sim.advance(self.sim.steps_per_publish)
+        self._exchanges += 1
+        self.publish_state()
 
     def _run_lockstep(self) -> None:
         executor = SingleThreadedExecutor(context=self.context)
@@ -226,8 +241,7 @@ class SimNode(Node):
                 self.sim.lockstep_timeouts += 1
             waiting_first = False
             self._matched = False
-            self.sim.advance(self.sim.steps_per_publish)
-            self.publish_state()
+            self._step_and_publish()
         executor.remove_node(self)
 
     def _run_realtime(self) -> None:
@@ -240,8 +254,7 @@ class SimNode(Node):
             executor.spin_once(timeout_sec=max(0.0, next_tick - time.monotonic()))
             now = time.monotonic()
             if now >= next_tick:
-                self.sim.advance(self.sim.steps_per_publish)
-                self.publish_state()
+                self._step_and_publish()
                 # Keep the schedule, but never try to catch up more than one period after a stall.
                 next_tick = max(next_tick + period, now - period)
         executor.remove_node(self)

@@ -1,0 +1,89 @@
+"""Node processes started the way a user starts them in separate terminals (`ros2 run` paths).
+
+Used by the demo, the benchmarks and the end-to-end tests: each process gets its own session, its
+output goes to files, and stop() ends the whole process group (SIGINT first, then SIGKILL).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+from pathlib import Path
+
+
+def node_executable(package: str, name: str) -> Path:
+    """The file `ros2 run <package> <name>` would run: <prefix>/lib/<package>/<name>."""
+    from ament_index_python.packages import get_package_prefix
+
+    path = Path(get_package_prefix(package)) / "lib" / package / name
+    if not path.exists():
+        raise FileNotFoundError(f"{path} not found: build the workspace first (make setup)")
+    return path
+
+
+def loopback_env(domain_id: int, base: dict[str, str] | None = None) -> dict[str, str]:
+    """An environment whose DDS traffic stays on this machine, on its own domain."""
+    env = dict(os.environ if base is None else base)
+    env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env.pop("ROS_STATIC_PEERS", None)
+    env["PYTHONUNBUFFERED"] = "1"
+    env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
+    return env
+
+
+class NodeProcess:
+    def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str) -> None:
+        self.name = name
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.stdout_path = log_dir / f"{name}.out"
+        self.stderr_path = log_dir / f"{name}.err"
+        self._out = self.stdout_path.open("w")
+        self._err = self.stderr_path.open("w")
+        self.proc = subprocess.Popen(argv, env=env, stdout=self._out, stderr=self._err, start_new_session=True)
+
+    def wait(self, timeout: float) -> int:
+        return self.proc.wait(timeout=timeout)
+
+    @property
+    def running(self) -> bool:
+        return self.proc.poll() is None
+
+    def _flush(self) -> None:
+        for f in (self._out, self._err):
+            if not f.closed:
+                f.flush()
+
+    @property
+    def stderr(self) -> str:
+        self._flush()
+        return self.stderr_path.read_text()
+
+    @property
+    def output(self) -> str:
+        self._flush()
+        return self.stdout_path.read_text() + self.stderr_path.read_text()
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        if self.proc.poll() is None:
+            try:
+                os.killpg(self.proc.pid, signal.SIGINT)
+                self.proc.wait(timeout=timeout)
+            except (subprocess.TimeoutExpired, ProcessLookupError):
+                pass
+        if self.proc.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(timeout=timeout)
+        self._out.close()
+        self._err.close()
+        return self.proc.returncode
+
+
+def start_node(
+    package: str, name: str, ros_args: list[str], env: dict[str, str], log_dir: Path, label: str | None = None
+) -> NodeProcess:
+    argv = [str(node_executable(package, name)), "--ros-args", *ros_args]
+    return NodeProcess(argv, env, log_dir, label or name)
