@@ -49,6 +49,8 @@ class TargetSpec:
 
 @dataclass(frozen=True)
 class ObstacleSpec:
+    """A circular obstacle: position [m] (at t = 0 in a scenario, now in World.obstacles()), velocity [m/s]."""
+
     id: int
     x: float
     y: float

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twbr_sim.scenario import Scenario
+from twbr_sim.scenario import ObstacleSpec, Scenario
 
 
 @dataclass(frozen=True)
@@ -27,16 +27,6 @@ class TargetState:
     @property
     def velocity(self) -> tuple[float, float]:
         return self.speed * math.cos(self.heading), self.speed * math.sin(self.heading)
-
-
-@dataclass(frozen=True)
-class ObstacleState:
-    id: int
-    x: float
-    y: float
-    vx: float
-    vy: float
-    radius: float
 
 
 @dataclass(frozen=True)
@@ -114,10 +104,11 @@ class World:
     def obstacle_positions(self) -> np.ndarray:
         return self._p0 + self._v * self.time
 
-    def obstacles(self) -> list[ObstacleState]:
+    def obstacles(self) -> list[ObstacleSpec]:
+        """The obstacles now: positions at the world's time, velocities and radii as specified."""
         pos = self.obstacle_positions()
         return [
-            ObstacleState(int(i), float(p[0]), float(p[1]), float(v[0]), float(v[1]), float(r))
+            ObstacleSpec(int(i), float(p[0]), float(p[1]), float(v[0]), float(v[1]), float(r))
             for i, p, v, r in zip(self._ids, pos, self._v, self._radius, strict=True)
         ]
 

@@ -12,7 +12,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_msgs.msg import Obstacle, ObstacleArray, WorldStatus
-from twbr_sim.world import Assessment, ObstacleState, TargetState
+from twbr_sim.scenario import ObstacleSpec
+from twbr_sim.world import Assessment, TargetState
 
 TARGET_FRAME = "target"
 MARKER_NAMESPACE = "twbr_world"
@@ -34,7 +35,7 @@ def target_message(target: TargetState, stamp: Time, frame: str) -> Odometry:
     return msg
 
 
-def obstacles_message(obstacles: list[ObstacleState], stamp: Time, frame: str) -> ObstacleArray:
+def obstacles_message(obstacles: list[ObstacleSpec], stamp: Time, frame: str) -> ObstacleArray:
     msg = ObstacleArray()
     msg.header.stamp = stamp
     msg.header.frame_id = frame
@@ -73,7 +74,7 @@ def _marker(stamp: Time, frame: str, mid: int, kind: int, color: tuple[float, fl
 
 
 def world_markers(
-    target: TargetState | None, obstacles: list[ObstacleState], capture_radius: float, stamp: Time, frame: str
+    target: TargetState | None, obstacles: list[ObstacleSpec], capture_radius: float, stamp: Time, frame: str
 ) -> MarkerArray:
     """Obstacles as cylinders, the target as a green sphere with its capture disc and heading arrow."""
     out = MarkerArray()
