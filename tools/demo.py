@@ -58,14 +58,6 @@ def main() -> int:
     last: dict[str, object] = {}
     qos = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
 
-    def keep(topic: str):
-        def cb(msg) -> None:
-            counts[topic] += 1
-            last[topic] = msg
-        return cb
-
-    for topic, kind in TOPICS.items():
-        node.create_subscription(kind, topic, keep(topic), qos)
     rows: list[str] = []
     next_row = [0.0]
 
@@ -86,7 +78,16 @@ def main() -> int:
         )
         print(rows[-1], flush=True)
 
-    node.create_subscription(Odometry, "odom", on_odom_row, qos)
+    def keep(topic: str):
+        def cb(msg) -> None:
+            counts[topic] += 1
+            last[topic] = msg
+            if topic == "odom":
+                on_odom_row(msg)
+        return cb
+
+    for topic, kind in TOPICS.items():
+        node.create_subscription(kind, topic, keep(topic), qos)
     procs = []
     sim = None
     try:

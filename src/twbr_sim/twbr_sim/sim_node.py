@@ -161,8 +161,9 @@ class SimNode(Node):
                 self.publish_world(stamp)
         if self.hosting_world and self._marker_due.due(t):
             world = sim.world
-            capture = world.scenario.target.capture_radius if world.scenario.target else 0.0
-            self.pub_markers.publish(world_markers(world.target(), world.obstacles(), capture, stamp, self._frame_odom))
+            self.pub_markers.publish(
+                world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
+            )
         self._pending_ns = now_ns
 
     def status_message(self, stamp) -> SimStatus:

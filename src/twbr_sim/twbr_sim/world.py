@@ -72,6 +72,12 @@ class World:
         self._v = np.array([[o.vx, o.vy] for o in obs], dtype=float).reshape(-1, 2)
         self._radius = np.array([o.radius for o in obs], dtype=float)
 
+    @property
+    def capture_radius(self) -> float:
+        """Distance at which the target counts as reached [m]; 0 without a target."""
+        tgt = self.scenario.target
+        return tgt.capture_radius if tgt is not None else 0.0
+
     def _draw_yaw_rate(self) -> float:
         w = self.scenario.target.max_yaw_rate
         return float(self._rng.uniform(-w, w)) if w > 0.0 else 0.0

@@ -89,9 +89,9 @@ class WorldNode(Node):
             a = self.world.assess(*self._robot_xy)
             self.pub_status.publish(world_status_message(a, self.world.collision_count, stamp, self.frame))
         if self._marker_due.due(t):
-            sc = self.world.scenario
-            capture = sc.target.capture_radius if sc.target else 0.0
-            self.pub_markers.publish(world_markers(target, self.world.obstacles(), capture, stamp, self.frame))
+            self.pub_markers.publish(
+                world_markers(target, self.world.obstacles(), self.world.capture_radius, stamp, self.frame)
+            )
 
 
 def main(args: list[str] | None = None) -> int:
