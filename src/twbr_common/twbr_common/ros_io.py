@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 from builtin_interfaces.msg import Time
+from rclpy.duration import Duration
+from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 # Sensor streams (odom, imu, joint_states) are subscribed best effort: that matches reliable and
@@ -24,3 +26,13 @@ def stamp_ns(stamp: Time) -> int:
 
 def stamp_seconds(stamp: Time) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
+
+
+def flush_publishers(node: Node, timeout_s: float = 1.0) -> bool:
+    """Wait until reliable subscribers have acknowledged everything published.
+
+    A process that exits right after its last publish would otherwise drop the final samples
+    (the last state of a run, the final status) that recorders and tests rely on.
+    """
+    deadline = Duration(seconds=timeout_s)
+    return all(pub.wait_for_all_acked(deadline) for pub in node.publishers)

@@ -22,7 +22,15 @@ from visualization_msgs.msg import MarkerArray
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.guard import Verdict
 from twbr_common.params import ConfigError
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, WORLD_QOS, stamp_ns, stamp_seconds, to_stamp
+from twbr_common.ros_io import (
+    COMMAND_QOS,
+    SENSOR_PUB_QOS,
+    WORLD_QOS,
+    flush_publishers,
+    stamp_ns,
+    stamp_seconds,
+    to_stamp,
+)
 from twbr_common.ros_params import declare, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, SimStatus, WheelTorques, WorldStatus
@@ -205,6 +213,10 @@ class SimNode(Node):
         else:
             self._run_realtime()
         wall = time.monotonic() - self._wall_start if self._wall_start is not None else 0.0
+        if self.context.ok():
+            final = to_stamp(self.sim.step_count * self._step_ns)
+            self.pub_status.publish(self.status_message(final))  # the run's final counters
+            flush_publishers(self)
         rates = (
             f"; {self._exchanges} exchanges in {wall:.3f} s wall: {self._exchanges / wall:.1f} exchanges/s,"
             f" real-time factor {(self.sim.time - self._sim_start) / wall:.2f}" if wall > 0 else ""
