@@ -1,0 +1,55 @@
+"""The controller's parameters: one table for the node, the headless closed loop, the tuner and the README.
+
+The gain defaults are the ones config/controller.yaml carries (tools/tune_gains.py, see there).
+"""
+
+from __future__ import annotations
+
+from twbr_common.params import ParamSpec
+
+GAIN_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("velocity.kp", 0.4529, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
+    ParamSpec("velocity.ki", 0.6938, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
+    ParamSpec("velocity.kd", 0.0, "velocity loop: derivative gain on the measured speed", "rad·s²/m", 0.0, 100.0),
+    ParamSpec("velocity.setpoint_weight", 0.494, "velocity loop: weight b of v_ref in the proportional term"
+              " (b*v_ref - v); b < 1 means less overshoot and roll-back on a step", "", 0.0, 1.0),
+    ParamSpec("velocity.derivative_filter", 0.02, "velocity loop: low-pass time constant of the derivative", "s",
+              0.0, 1.0),
+    ParamSpec("pitch.kp", 42.52, "pitch loop: common wheel torque per rad of pitch error", "N·m/rad", 0.0, 10000.0),
+    ParamSpec("pitch.ki", 0.0, "pitch loop: integral gain", "N·m/(rad·s)", 0.0, 10000.0),
+    ParamSpec("pitch.kd", 8.793, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("pitch.derivative_filter", 0.005, "pitch loop: low-pass time constant of the derivative", "s",
+              0.0, 1.0),
+    ParamSpec("yaw_rate.kp", 3.429, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.ki", 0.9293, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
+)
+
+CONTROL_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("rate", 200.0, "control rate: one command per state at most this often (in lockstep, set the"
+              " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
+    ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
+    ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
+    ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
+              low_open=True),
+    ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",
+              "rad", -0.3, 0.3),
+    ParamSpec("max_wheel_torque", 15.0, "motor torque limit per wheel: commands are limited to it", "N·m",
+              0.0, 1000.0, low_open=True),
+    ParamSpec("fall_pitch", 0.6, "|pitch - pitch_offset| past this is a fall: zero torque until re-enabled",
+              "rad", 0.05, 1.5),
+    ParamSpec("max_sample_gap", 0.05, "a longer gap between states restarts the derivatives and caps the"
+              " integration step", "s", 0.001, 1.0),
+    *GAIN_SPECS,
+)
+
+NODE_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("cmd_vel_timeout", 0.5, "cmd_vel older than this: references go to zero and the robot balances in"
+              " place", "s", 0.01, 60.0),
+    ParamSpec("state_timeout", 0.2, "odom or imu stamped this much before the node's clock is stale and dropped",
+              "s", 0.001, 10.0),
+    ParamSpec("sync_tolerance", 0.001, "odom and imu stamps at most this far apart form one state (the"
+              " simulator stamps both alike; widen it for a driver with separate clocks)", "s", 0.0, 1.0),
+    ParamSpec("enable_stamped_cmd_vel", False, "subscribe cmd_vel as geometry_msgs/TwistStamped (Nav2's name)"
+              " instead of Twist"),
+    ParamSpec("start_enabled", True, "command torque from the start; false waits for ~/enable (std_srvs/SetBool)"),
+)

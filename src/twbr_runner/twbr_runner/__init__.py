@@ -1,0 +1,1 @@
+"""Scenario runner, recorder, metrics and figures from bags, headless closed loop and gain tuning."""

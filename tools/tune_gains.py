@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Tune (or check) the controller's gains on the nonlinear model and print the figures behind them.
+
+    tools/run.sh python tools/tune_gains.py            # tune from LQR, print figures and YAML lines
+    tools/run.sh python tools/tune_gains.py --check    # only check the gains in config/controller.yaml
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from twbr_common.params import defaults, validate_all
+from twbr_control.controller_params import CONTROL_SPECS
+from twbr_runner.tuning import (
+    BALANCE_GAINS,
+    YAW_GAINS,
+    check_step,
+    robot_variants,
+    tune,
+    velocity_step,
+    yaw_rate_step,
+)
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def report(control: dict) -> bool:
+    ok = True
+    print(f"{'robot':>22} | {'v settle s':>10} {'overshoot %':>11} {'sse %':>6} {'rollback m/s':>12}"
+          f" {'pitch settle s':>14} {'max |T| N·m':>11} | {'w settle s':>10} {'w overshoot %':>13}"
+          f" {'max |pitch|':>11}")
+    for robot in robot_variants():
+        v = check_step(velocity_step(control, robot), "velocity", "velocity_ref")
+        w = check_step(yaw_rate_step(control, robot), "yaw_rate", "yaw_rate_ref")
+        name = ", ".join(f"{k} {val:g}" for k, val in robot.items()) or "nominal"
+        vr, wr = v.response, w.response
+        print(f"{name:>22} | {vr.settle_time_s:10.3f} {vr.overshoot_pct:11.2f} {vr.steady_state_error_pct:6.2f}"
+              f" {-vr.undershoot:12.4f} {v.pitch_settle_time_s:14.3f} {v.max_torque_nm:11.3f} |"
+              f" {wr.settle_time_s:10.3f} {wr.overshoot_pct:13.2f} {w.max_abs_pitch_rad:11.4f}")
+        ok &= (not v.fallen and vr.settle_time_s <= 1.5 and vr.overshoot_pct < 20 and vr.steady_state_error_pct < 2
+               and v.pitch_settle_time_s < 4.0 and not w.fallen and wr.settle_time_s <= 1.5)
+    big = check_step(velocity_step(control, size=1.0, duration=6.0), "velocity", "velocity_ref")
+    print(f"1 m/s step (nominal): settle {big.response.settle_time_s:.3f} s, overshoot"
+          f" {big.response.overshoot_pct:.2f} %, max |pitch| {big.max_abs_pitch_rad:.4f} rad,"
+          f" max |T| {big.max_torque_nm:.3f} N·m, fallen {big.fallen}")
+    return ok
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--check", action="store_true", help="only check the gains of the parameter file")
+    ap.add_argument("--params", type=Path, default=ROOT / "config" / "controller.yaml")
+    ap.add_argument("--max-evaluations", type=int, default=400)
+    args = ap.parse_args()
+    from_file = yaml.safe_load(args.params.read_text())["controller_node"]["ros__parameters"]
+    known = {s.name for s in CONTROL_SPECS}
+    control = validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **{k: v for k, v in from_file.items()
+                                                                         if k in known}})
+    if not args.check:
+        t0 = time.monotonic()
+        result = tune(control, args.max_evaluations)
+        print(f"tuned in {time.monotonic() - t0:.1f} s, {result['evaluations']} closed-loop evaluations x 3 robots")
+        print("LQR start:", ", ".join(f"{k} {v:.4g}" for k, v in result["lqr_start"].items()),
+              f"(cost {result['start_cost']:.4f})")
+        print(f"balance cost {result['balance_cost']:.4f}, yaw cost {result['yaw_cost']:.4f}")
+        control = {**control, **result["gains"]}
+        print("YAML:")
+        for name in (*BALANCE_GAINS, *YAW_GAINS):
+            print(f"    {name}: {control[name]:.4g}")
+    ok = report(control)
+    print("meets the issue's step requirements on all three robots:", "yes" if ok else "NO")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
