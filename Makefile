@@ -19,7 +19,7 @@ e2e: setup
 	@$(RUN) python -m pytest -q -m e2e
 
 demo: setup
-	@$(RUN) python tools/demo.py
+	@$(RUN) python -m twbr_runner.runner $(SCENARIO)
 
 bench: setup
 	@$(RUN) python benchmarks/bench_dynamics.py

@@ -16,5 +16,10 @@ setup(
     maintainer_email="maintainers@twbr.dev",
     description="Scenario runner, rosbag2 (MCAP) recorder, metrics and figures from bags, headless closed loop and gain tuning.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={
+        "console_scripts": [
+            "recorder = twbr_runner.recorder:main",
+            "run_scenario = twbr_runner.runner:main",
+        ],
+    },
 )

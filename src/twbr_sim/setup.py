@@ -36,6 +36,7 @@ setup(
             "sim_node = twbr_sim.sim_node:main",
             "world_node = twbr_sim.world_node:main",
             "torque_driver = twbr_sim.torque_driver:main",
+            "command_player = twbr_sim.command_player:main",
         ],
     },
 )

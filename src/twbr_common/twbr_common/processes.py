@@ -83,7 +83,9 @@ class NodeProcess:
 
 
 def start_node(
-    package: str, name: str, ros_args: list[str], env: dict[str, str], log_dir: Path, label: str | None = None
+    package: str, name: str, ros_args: list[str], env: dict[str, str], log_dir: Path, label: str | None = None,
+    args: list[str] | None = None,
 ) -> NodeProcess:
-    argv = [str(node_executable(package, name)), "--ros-args", *ros_args]
+    """`ros2 run <package> <name> [args] --ros-args <ros_args>` as its own process group."""
+    argv = [str(node_executable(package, name)), *(args or []), "--ros-args", *ros_args]
     return NodeProcess(argv, env, log_dir, label or name)

@@ -1,1 +1,1 @@
-"""Cascaded PID balance/velocity controller with a PI yaw-rate loop (issue 4 fills this package)."""
+"""Cascaded PID balance/velocity controller with a PI yaw-rate loop: cores (pid, cascade, state_sync) and the node."""

@@ -205,9 +205,21 @@ class SimNode(Node):
         duration = self.cfg["duration"]
         return duration > 0.0 and self.sim.time >= duration - 1e-12
 
+    def _wait_for_subscribers(self) -> None:
+        wanted = self.cfg["wait_for_subscribers"]
+        if wanted == 0:
+            return
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(self)
+        self.get_logger().info(f"waiting for {wanted} odom subscriber(s)")
+        while self.context.ok() and self.pub_odom.get_subscription_count() < wanted:
+            executor.spin_once(timeout_sec=0.02)
+        executor.remove_node(self)
+
     def run(self) -> None:
         self._wall_start: float | None = None
         self._exchanges = 0
+        self._wait_for_subscribers()
         if self.lockstep:
             self._run_lockstep()
         else:

@@ -32,6 +32,8 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
               " it (counted as a timeout)", "s", 0.001, 60.0),
     ParamSpec("wait_for_first_command", True, "lockstep: hold sim time at 0 until the first command arrives,"
               " so a controller started later finds the robot upright"),
+    ParamSpec("wait_for_subscribers", 0, "publish nothing until odom has this many matched subscriptions (a"
+              " runner sets it so that its recorder and controller both see t = 0)", "", 0, 1000),
     ParamSpec("command_timeout", 0.1, "a wheel_torque_cmd older than this (sim time) is stale: zero torque", "s",
               0.001, 10.0),
     ParamSpec("duration", 0.0, "sim time after which the node stops by itself; 0 runs until stopped", "s",

@@ -1,0 +1,154 @@
+"""controller_node: the cascaded PID controller as a ROS 2 node (a thin adapter over twbr_control.cascade).
+
+Subscribes odom and imu (sensor-data QoS) and cmd_vel (Twist, or TwistStamped with
+enable_stamped_cmd_vel); publishes wheel_torque_cmd, stamped with the state it was computed from (what
+a lockstep simulator waits for), and controller_state. It computes once per state, at most at `rate`,
+so it runs in sim time (use_sim_time, /clock) and in wall time alike. Service ~/enable (SetBool).
+"""
+
+from __future__ import annotations
+
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Twist, TwistStamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from sensor_msgs.msg import Imu
+from std_srvs.srv import SetBool
+
+from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.guard import InputGuard, Verdict
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
+from twbr_common.ros_params import declare, run_node
+from twbr_control.cascade import CascadeController, ControlOutput
+from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
+from twbr_control.state_sync import Action, RobotState, StateSync
+from twbr_msgs.msg import ControllerState, WheelTorques
+
+
+class ControllerNode(Node):
+    def __init__(self) -> None:
+        super().__init__("controller_node")
+        cfg = {**declare(self, CONTROL_SPECS), **declare(self, NODE_SPECS)}
+        self.cfg = cfg
+        self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
+        self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
+        self.odom_guard = InputGuard(cfg["state_timeout"])
+        self.imu_guard = InputGuard(cfg["state_timeout"])
+        stamped = cfg["enable_stamped_cmd_vel"]
+        self.cmd_guard = InputGuard(cfg["cmd_vel_timeout"], require_stamp=stamped)
+        self.velocity_ref = 0.0
+        self.yaw_rate_ref = 0.0
+        self._last_command: WheelTorques | None = None
+        self._reported_fall = False
+        self._stamps: dict[str, Time] = {}
+
+        self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
+        self.pub_state = self.create_publisher(ControllerState, "controller_state", SENSOR_PUB_QOS)
+        self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
+        self.create_subscription(Imu, "imu", self._on_imu, SENSOR_SUB_QOS)
+        if stamped:
+            self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, COMMAND_QOS)
+        else:
+            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_QOS)
+        self.create_service(SetBool, "~/enable", self._on_enable)
+        self.get_logger().info(
+            f"cascaded PID at up to {cfg['rate']:g} Hz, cmd_vel as {'TwistStamped' if stamped else 'Twist'},"
+            f" {'enabled' if cfg['start_enabled'] else 'disabled until ~/enable'}"
+        )
+
+    # --- inputs -------------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _admit(self, guard: InputGuard, stream: str, stamp: float, values: tuple[float, ...]) -> bool:
+        verdict = guard.offer(stamp, values, self._now())
+        if verdict is Verdict.ACCEPTED:
+            return True
+        if verdict is Verdict.OUT_OF_ORDER and guard.last_stamp is not None and \
+                guard.last_stamp - stamp > self.cfg["state_timeout"] and guard is not self.cmd_guard:
+            # Time jumped back (a restarted simulator, a bag replayed from the start): start afresh.
+            self.get_logger().warn(f"{stream} time jumped back from {guard.last_stamp:.3f} s to {stamp:.3f} s:"
+                                   " resetting the controller")
+            for g in (self.odom_guard, self.imu_guard, self.cmd_guard):
+                g.reset()
+            self.sync.reset()
+            self.controller.reset()
+            return guard.offer(stamp, values, self._now()) is Verdict.ACCEPTED
+        self.get_logger().warn(f"dropped {stream}: {verdict.value}", throttle_duration_sec=1.0)
+        return False
+
+    def _on_odom(self, msg: Odometry) -> None:
+        stamp = stamp_seconds(msg.header.stamp)
+        velocity, yaw_rate = msg.twist.twist.linear.x, msg.twist.twist.angular.z
+        if self._admit(self.odom_guard, "odom", stamp, (velocity, yaw_rate)):
+            self._stamps["odom"] = msg.header.stamp
+            self._act(*self.sync.offer_odom(stamp, velocity, yaw_rate))
+
+    def _on_imu(self, msg: Imu) -> None:
+        stamp = stamp_seconds(msg.header.stamp)
+        o = msg.orientation
+        _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
+        pitch_rate = msg.angular_velocity.y
+        if self._admit(self.imu_guard, "imu", stamp, (pitch, pitch_rate)):
+            self._stamps["imu"] = msg.header.stamp
+            self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
+
+    def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
+        values = (twist.linear.x, twist.angular.z)
+        if self._admit(self.cmd_guard, "cmd_vel", stamp, values):
+            self.velocity_ref, self.yaw_rate_ref = values
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self._take_cmd_vel(self._now(), msg)  # an unstamped Twist is as old as its arrival
+
+    def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
+        self._take_cmd_vel(stamp_seconds(msg.header.stamp), msg.twist)
+
+    def _on_enable(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        self.controller.set_enabled(request.data)
+        self._reported_fall = False
+        response.success = True
+        response.message = "enabled: loops reset" if request.data else "disabled: zero torque"
+        self.get_logger().info(response.message)
+        return response
+
+    # --- control ------------------------------------------------------------------------------
+    def _act(self, action: Action, state: RobotState | None) -> None:
+        if action is Action.REPEAT and self._last_command is not None:
+            self.pub_torque.publish(self._last_command)
+        elif action is Action.COMPUTE and state is not None:
+            stale = self.cmd_guard.is_stale(state.stamp)
+            out = self.controller.compute(state.stamp, self.velocity_ref, self.yaw_rate_ref, state.velocity,
+                                          state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)
+            # The newer of the two stamps, exactly as received (a lockstep simulator compares nanoseconds).
+            self._publish(out, max(self._stamps.values(), key=stamp_ns))
+
+    def _publish(self, out: ControlOutput, stamp) -> None:
+        command = WheelTorques(left=out.left_torque, right=out.right_torque)
+        command.header.stamp = stamp
+        command.header.frame_id = "base_link"
+        self.pub_torque.publish(command)
+        self._last_command = command
+        self.pub_state.publish(controller_state_message(out, command.header))
+        if out.fallen and not self._reported_fall:
+            self._reported_fall = True
+            self.get_logger().error(
+                f"fallen: |pitch| = {abs(out.pitch):.3f} rad past fall_pitch = {self.cfg['fall_pitch']:g} rad;"
+                " zero torque until ~/enable true"
+            )
+
+
+def controller_state_message(out: ControlOutput, header) -> ControllerState:
+    msg = ControllerState(header=header)
+    for name in ControlOutput.__dataclass_fields__:
+        if name != "stamp":
+            setattr(msg, name, type(getattr(msg, name))(getattr(out, name)))
+    return msg
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node("controller_node", ControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

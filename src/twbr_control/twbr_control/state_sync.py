@@ -1,0 +1,72 @@
+"""Pairs odom and imu samples into one robot state, and decides when a state is due for control.
+
+The speed and yaw rate come from odom, the pitch and its rate from the IMU. A state is formed only from
+an odom and an imu stamped within `tolerance` of each other (the simulator stamps both alike), so the
+controller never mixes a new pitch with an old speed and is deterministic in lockstep. A state is due
+once per control period of its stamps; the same state offered again (a lockstep simulator re-offering
+its first state) asks for the same command again, which is what lets a late-starting graph begin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+
+@dataclass(frozen=True)
+class RobotState:
+    stamp: float  # [s], the newer of the two stamps
+    velocity: float  # [m/s]
+    yaw_rate: float  # [rad/s]
+    pitch: float  # [rad]
+    pitch_rate: float  # [rad/s]
+
+
+class Action(Enum):
+    WAIT = "wait"  # no complete state, or not due yet
+    COMPUTE = "compute"  # a new state is due: compute and send a command
+    REPEAT = "repeat"  # the state last computed was offered again: send the same command again
+
+
+class StateSync:
+    def __init__(self, rate: float, tolerance: float) -> None:
+        self.period = 1.0 / rate
+        self.tolerance = tolerance
+        self._odom: tuple[float, float, float] | None = None
+        self._imu: tuple[float, float, float] | None = None
+        self.last_stamp: float | None = None
+        self._next_due: float | None = None
+
+    def reset(self) -> None:
+        self.__init__(1.0 / self.period, self.tolerance)
+
+    def offer_odom(self, stamp: float, velocity: float, yaw_rate: float) -> tuple[Action, RobotState | None]:
+        self._odom = (stamp, velocity, yaw_rate)
+        return self._decide()
+
+    def offer_imu(self, stamp: float, pitch: float, pitch_rate: float) -> tuple[Action, RobotState | None]:
+        self._imu = (stamp, pitch, pitch_rate)
+        return self._decide()
+
+    def _decide(self) -> tuple[Action, RobotState | None]:
+        if self._odom is None or self._imu is None:
+            return Action.WAIT, None
+        t_odom, velocity, yaw_rate = self._odom
+        t_imu, pitch, pitch_rate = self._imu
+        if abs(t_odom - t_imu) > self.tolerance + 1e-12:
+            return Action.WAIT, None
+        stamp = max(t_odom, t_imu)
+        state = RobotState(stamp, velocity, yaw_rate, pitch, pitch_rate)
+        if self.last_stamp is not None and stamp == self.last_stamp:
+            return Action.REPEAT, state
+        if self.last_stamp is not None and stamp < self.last_stamp:
+            return Action.WAIT, None  # an older pair completed late: the command for a newer one is out
+        if self._next_due is not None and stamp < self._next_due - 0.25 * self.period:
+            return Action.WAIT, None
+        # Keep the schedule (jittery stamps still give the set rate); restart it after a gap.
+        if self._next_due is None or stamp > self._next_due + self.period:
+            self._next_due = stamp + self.period
+        else:
+            self._next_due += self.period
+        self.last_stamp = stamp
+        return Action.COMPUTE, state

@@ -1,0 +1,125 @@
+"""A run's figures of merit, computed from its recording alone (decoded messages -> arrays -> metrics).
+
+Time is the messages' header stamps (sim time), never the receive time. The pitch is the true one from
+odom's orientation; the references, measurements and commands are what the controller published.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from twbr_common.geometry import rpy_from_quaternion
+from twbr_runner.response import settle_time, step_response
+
+PITCH_BAND = 0.005  # rad: "theta returns within +-0.005 rad of its equilibrium"
+CONTROLLER_FIELDS = (
+    "velocity_ref", "velocity", "yaw_rate_ref", "yaw_rate", "pitch_ref", "pitch", "pitch_rate",
+    "common_torque", "differential_torque", "left_torque", "right_torque", "dt",
+    "pitch_ref_limited", "torque_saturated", "cmd_vel_stale", "fallen", "enabled",
+)
+
+
+def stamp_of(msg: Any) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+@dataclass
+class RunSeries:
+    """Arrays of one run, by topic, each with its own stamp axis."""
+
+    control_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    control: dict[str, np.ndarray] = field(default_factory=dict)
+    odom_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    x_c: np.ndarray = field(default_factory=lambda: np.empty(0))
+    y_c: np.ndarray = field(default_factory=lambda: np.empty(0))
+    pitch: np.ndarray = field(default_factory=lambda: np.empty(0))  # true pitch from odom [rad]
+    joints_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    wheel_effort: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # delivered [N·m]
+    sim_status: list[Any] = field(default_factory=list)
+    world_status: list[Any] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=dict)
+    messages: dict[str, list[tuple[int, Any]]] = field(default_factory=dict)
+
+
+def _dedupe_by_stamp(items: list[tuple[int, Any]]) -> list[Any]:
+    """Messages in stamp order, one per stamp (a lockstep simulator may re-offer its first state)."""
+    by_stamp: dict[float, Any] = {}
+    for _, msg in items:
+        by_stamp.setdefault(stamp_of(msg), msg)
+    return [by_stamp[t] for t in sorted(by_stamp)]
+
+
+def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSeries:
+    s = RunSeries(counts={t: len(v) for t, v in messages.items()}, messages=dict(messages))
+    control = _dedupe_by_stamp(messages.get("/controller_state", []))
+    s.control_t = np.array([stamp_of(m) for m in control])
+    s.control = {name: np.array([float(getattr(m, name)) for m in control]) for name in CONTROLLER_FIELDS}
+    odom = _dedupe_by_stamp(messages.get("/odom", []))
+    s.odom_t = np.array([stamp_of(m) for m in odom])
+    s.x_c = np.array([m.pose.pose.position.x for m in odom])
+    s.y_c = np.array([m.pose.pose.position.y for m in odom])
+    s.pitch = np.array([rpy_from_quaternion(m.pose.pose.orientation.x, m.pose.pose.orientation.y,
+                                            m.pose.pose.orientation.z, m.pose.pose.orientation.w)[1] for m in odom])
+    joints = _dedupe_by_stamp(messages.get("/joint_states", []))
+    s.joints_t = np.array([stamp_of(m) for m in joints])
+    s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
+    s.sim_status = [m for _, m in sorted(messages.get("/sim_status", []), key=lambda x: stamp_of(x[1]))]
+    s.world_status = [m for _, m in sorted(messages.get("/world_status", []), key=lambda x: stamp_of(x[1]))]
+    return s
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x**2))) if len(x) else math.nan
+
+
+def _finite(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float) -> dict[str, Any]:
+    if len(s.control_t) == 0 or len(s.odom_t) == 0:
+        raise ValueError("the recording has no controller_state or no odom: nothing to measure")
+    c = s.control
+    sim_time = float(max(s.odom_t[-1], s.control_t[-1]))
+    final_pitch = float(np.median(s.pitch[s.odom_t >= sim_time - max(0.5, 0.2 * sim_time)]))
+    pitch_settle = settle_time(s.odom_t, s.pitch, final_pitch, PITCH_BAND, 0.0)
+    settled = s.odom_t >= (pitch_settle if math.isfinite(pitch_settle) else math.inf)
+    last_status = s.sim_status[-1] if s.sim_status else None
+    fallen = bool(c["fallen"].any()) or any(m.fallen for m in s.sim_status)
+    commanded = max(float(np.abs(c["left_torque"]).max()), float(np.abs(c["right_torque"]).max()))
+    delivered = float(np.abs(s.wheel_effort).max()) if len(s.wheel_effort) else math.nan
+    metrics: dict[str, Any] = {
+        "scenario": scenario,
+        "seed": seed,
+        "sim_time_s": sim_time,
+        "wall_time_s": wall_time_s,
+        "real_time_factor": sim_time / wall_time_s if wall_time_s > 0 else None,
+        "fallen": fallen,
+        "pitch_min_rad": float(s.pitch.min()),
+        "pitch_max_rad": float(s.pitch.max()),
+        "pitch_final_rad": final_pitch,
+        "pitch_band_rad": PITCH_BAND,
+        "pitch_settle_time_s": _finite(pitch_settle),
+        "pitch_after_settle_min_rad": float(s.pitch[settled].min()) if settled.any() else None,
+        "pitch_after_settle_max_rad": float(s.pitch[settled].max()) if settled.any() else None,
+        "v_rmse": _rms(c["velocity"] - c["velocity_ref"]),
+        "w_rmse": _rms(c["yaw_rate"] - c["yaw_rate_ref"]),
+        "max_torque_nm": commanded,
+        "max_delivered_torque_nm": delivered,
+        "torque_saturated_samples": int(c["torque_saturated"].sum()),
+        "cmd_vel_stale_samples": int(c["cmd_vel_stale"].sum()),
+        "lockstep_timeouts": int(last_status.lockstep_timeouts) if last_status else None,
+        "commands_rejected": int(last_status.commands_rejected) if last_status else None,
+        "control_samples": len(s.control_t),
+        "messages": s.counts,
+    }
+    for name, signal, ref in (("velocity_step", "velocity", "velocity_ref"), ("yaw_rate_step", "yaw_rate",
+                                                                               "yaw_rate_ref")):
+        response = step_response(s.control_t, c[signal], c[ref])
+        metrics[name] = response.as_dict() if response is not None else None
+    return metrics

@@ -1,0 +1,137 @@
+"""recorder: `ros2 bag record` for machines without rosbag2 — topics to a rosbag2 (MCAP) directory.
+
+    ros2 run twbr_runner recorder -o runs/my_bag -a
+    ros2 run twbr_runner recorder -o runs/my_bag odom imu wheel_torque_cmd:twbr_msgs/msg/WheelTorques
+
+Topics named with their type are subscribed at once, before any publisher exists (so nothing published
+after discovery is missed); others are subscribed when they appear in the graph (polled every 0.1 s),
+with the reliability and durability their publishers offer, as rosbag2 does. Messages are stored as the
+CDR bytes received, stamped with the wall-clock time of receipt. SIGINT/SIGTERM close the bag cleanly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from pathlib import Path
+
+import rclpy
+from ament_index_python.packages import get_package_share_directory
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.utilities import remove_ros_args
+
+from twbr_runner.bag_writer import BagWriter, qos_profile, typestore_with
+
+# Graph bookkeeping topics rosbag2 skips by default too.
+SKIPPED = ("/parameter_events", "/rosout")
+
+
+def _share(package: str) -> Path:
+    return Path(get_package_share_directory(package))
+
+
+def message_class(msgtype: str) -> type:
+    package, kind, name = msgtype.split("/")
+    return getattr(importlib.import_module(f"{package}.{kind}"), name)
+
+
+class Recorder(Node):
+    def __init__(self, output: Path, topics: dict[str, str | None], record_all: bool) -> None:
+        super().__init__("recorder")
+        known = [t for t in topics.values() if t]
+        self.writer = BagWriter(output, typestore_with(known, _share))
+        self.wanted = {self.resolve_topic_name(t): kind for t, kind in topics.items()}
+        self.record_all = record_all
+        self._recorded: dict[str, object] = {}
+        for topic, msgtype in self.wanted.items():
+            if msgtype:
+                self._subscribe(topic, msgtype, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
+        self.create_timer(0.1, self._discover)
+        self.get_logger().info(f"recording to {output}: {len(self._recorded)} topics subscribed"
+                               f"{', and any others that appear' if record_all else ''}")
+
+    def _subscribe(self, topic: str, msgtype: str, qos: QoSProfile) -> None:
+        if msgtype not in self.writer.typestore.types:
+            typestore_with([msgtype], _share, self.writer.typestore)
+        self.writer.add_topic(topic, msgtype, qos_profile(
+            qos.reliability == ReliabilityPolicy.RELIABLE, qos.durability == DurabilityPolicy.TRANSIENT_LOCAL,
+        ))
+        self._recorded[topic] = self.create_subscription(
+            message_class(msgtype), topic, lambda data, t=topic: self.writer.write(t, time.time_ns(), data), qos,
+            raw=True,
+        )
+
+    def _discover(self) -> None:
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self._recorded or topic in SKIPPED:
+                continue
+            if not (self.record_all or topic in self.wanted):
+                continue
+            publishers = self.get_publishers_info_by_topic(topic)
+            if not publishers:
+                continue
+            offered = [p.qos_profile for p in publishers]
+            reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
+            latched = all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
+            qos = QoSProfile(
+                depth=1000,
+                reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+            )
+            try:
+                self._subscribe(topic, types[0], qos)
+            except (ImportError, AttributeError, FileNotFoundError, LookupError) as e:
+                self.get_logger().warn(f"cannot record {topic} [{types[0]}]: {e}", once=True)
+                self._recorded[topic] = None
+                continue
+            self.get_logger().info(f"recording {topic} [{types[0]}]")
+
+    def close(self) -> None:
+        self.writer.close()
+        counts = ", ".join(f"{t} {n}" for t, n in sorted(self.writer.counts.items()))
+        # The context may be shut down already (SIGINT): print rather than log to /rosout.
+        print(f"[recorder] closed {self.writer.path}: {self.writer.total} messages ({counts})", file=sys.stderr,
+              flush=True)
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog="recorder", description=__doc__.split("\n")[0])
+    ap.add_argument("-o", "--output", type=Path, required=True, help="bag directory to create (must not exist)")
+    ap.add_argument("-a", "--all", action="store_true", help="record every topic that appears")
+    ap.add_argument("topics", nargs="*", help="topic or topic:package/msg/Type")
+    args = ap.parse_args(argv)
+    if not args.all and not args.topics:
+        ap.error("name topics or pass -a")
+    if args.output.exists():
+        ap.error(f"{args.output} exists: rosbag2 never overwrites a bag")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv if argv is None else argv
+    args = parse_args(remove_ros_args(argv)[1:])
+    topics = {}
+    for item in args.topics:
+        topic, _, msgtype = item.partition(":")
+        topics[topic] = msgtype or None
+    rclpy.init(args=argv)
+    node = None
+    try:
+        node = Recorder(args.output, topics, args.all)
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

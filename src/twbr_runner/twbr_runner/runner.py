@@ -1,0 +1,323 @@
+"""run_scenario: one scenario through the real node graph, recorded, measured and plotted.
+
+    ros2 run twbr_runner run_scenario step            # or: make demo SCENARIO=step
+    ros2 run twbr_runner run_scenario config/scenarios/yaw_step.yaml --out runs --seed 3
+
+Starts, as separate processes with their parameter files (what a user does in several terminals): the
+recorder (every topic to a rosbag2 MCAP bag), the controller, the scenario's cmd_vel source, and last the
+simulator in lockstep, which holds t = 0 until the recorder and the controller are subscribed. All on one
+DDS domain on loopback. It shows sim time against the scenario's length, stops at the scenario's end
+(its duration, or the target reached when the scenario says so) or at a wall-clock limit, and stops every
+process it started, also on Ctrl-C, SIGTERM and failure. Then, from the bag alone, it writes
+runs/<scenario>-<time>/metrics.json and the response figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from twbr_common.params import ConfigError
+from twbr_common.processes import NodeProcess, loopback_env, start_node
+from twbr_runner.bag_reader import bag_info, read_messages
+from twbr_runner.figures import response_figures
+from twbr_runner.metrics import compute_metrics, series_from_messages
+from twbr_sim.scenario import Scenario, load_scenario
+from twbr_sim.scenario_files import config_dir, find_scenario
+
+# Every topic of the contract, with its type: the recorder subscribes to these before any node starts.
+RECORDED_TOPICS = {
+    "/clock": "rosgraph_msgs/msg/Clock",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "odom": "nav_msgs/msg/Odometry",
+    "imu": "sensor_msgs/msg/Imu",
+    "joint_states": "sensor_msgs/msg/JointState",
+    "wheel_torque_cmd": "twbr_msgs/msg/WheelTorques",
+    "controller_state": "twbr_msgs/msg/ControllerState",
+    "sim_status": "twbr_msgs/msg/SimStatus",
+    "target": "nav_msgs/msg/Odometry",
+    "obstacles": "twbr_msgs/msg/ObstacleArray",
+    "world_status": "twbr_msgs/msg/WorldStatus",
+    "world_markers": "visualization_msgs/msg/MarkerArray",
+}
+EXIT_FAILED = 1
+EXIT_INTERRUPTED = 130
+
+
+@dataclass
+class NodeSpec:
+    label: str
+    package: str
+    executable: str
+    ros_args: list[str]
+    args: list[str] = field(default_factory=list)
+
+
+@dataclass
+class RunOptions:
+    scenario: Path
+    out_root: Path = Path("runs")
+    seed: int | None = None
+    domain: int | None = None
+    wall_timeout: float | None = None
+    figures: bool = True
+    quiet: bool = False
+
+
+def _params(config: Path, *names: str) -> list[str]:
+    out = []
+    for name in names:
+        out += ["--params-file", str(config / name)]
+    return out
+
+
+def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path) -> list[NodeSpec]:
+    """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
+    recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
+    nodes = [
+        NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics]),
+        NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml")),
+    ]
+    if scenario.commands:
+        nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
+                              [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"]))
+    nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
+        *_params(config, "robot.yaml", "sim.yaml"),
+        "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
+        "-p", "mode:=lockstep", "-p", "wait_for_subscribers:=2",  # the recorder and the controller
+    ]))
+    return nodes
+
+
+class Progress:
+    """Sim time from sim_status (and the end condition from world_status), via a small rclpy node."""
+
+    def __init__(self, domain: int) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        from twbr_common.ros_io import WORLD_QOS, stamp_seconds
+        from twbr_msgs.msg import SimStatus, WorldStatus
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node("run_scenario_progress", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.sim_time = 0.0
+        self.fallen = False
+        self.target_reached = False
+
+        def on_status(msg: SimStatus) -> None:
+            self.sim_time = max(self.sim_time, stamp_seconds(msg.header.stamp))
+            self.fallen |= msg.fallen
+
+        def on_world(msg: WorldStatus) -> None:
+            self.target_reached |= msg.target_reached
+
+        self.node.create_subscription(SimStatus, "sim_status", on_status, WORLD_QOS)
+        self.node.create_subscription(WorldStatus, "world_status", on_world, WORLD_QOS)
+
+    def spin(self, seconds: float) -> None:
+        self.executor.spin_once(timeout_sec=seconds)
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self._rclpy.try_shutdown(context=self.context)
+
+
+class Interrupted(Exception):
+    pass
+
+
+def _on_signal(signum: int, _frame: Any) -> None:
+    raise Interrupted(signal.Signals(signum).name)
+
+
+def _say(opts: RunOptions, text: str, end: str = "\n") -> None:
+    if not opts.quiet:
+        print(text, end=end, flush=True)
+
+
+def run(opts: RunOptions) -> tuple[int, Path]:
+    """Run, record, measure; returns (exit code, run directory)."""
+    scenario_path = find_scenario(str(opts.scenario))
+    scenario = load_scenario(scenario_path)
+    seed = scenario.seed if opts.seed is None else opts.seed
+    domain = opts.domain if opts.domain is not None else int(os.environ.get("ROS_DOMAIN_ID", "0"))
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    run_dir = opts.out_root / f"{scenario.name}-{stamp}"
+    n = 1
+    while run_dir.exists():
+        n += 1
+        run_dir = opts.out_root / f"{scenario.name}-{stamp}-{n}"
+    bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
+    run_dir.mkdir(parents=True)
+    env = loopback_env(domain)
+    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir)
+    wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
+    (run_dir / "command.txt").write_text(" ".join(sys.argv) + "\n" + "\n".join(
+        f"{n.label}: ros2 run {n.package} {n.executable} {' '.join(n.args)} --ros-args {' '.join(n.ros_args)}"
+        for n in nodes) + "\n")
+
+    _say(opts, f"run_scenario: {scenario.name} (seed {seed}, {scenario.duration:g} s sim time) on ROS_DOMAIN_ID"
+               f" {domain} -> {run_dir}")
+    procs: dict[str, NodeProcess] = {}
+    previous = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    code, reason = 0, "completed"
+    progress: Progress | None = None
+    wall_start = time.monotonic()
+    sim_wall: float | None = None
+    try:
+        progress = Progress(domain)
+        for spec in nodes:
+            procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, env, log_dir, spec.label,
+                                           spec.args)
+            if spec.label == "recorder":
+                _wait_for_line(procs["recorder"], "recording to", 20.0)
+        sim = procs["sim"]
+        tty = sys.stdout.isatty()
+        last_print = time.monotonic()
+        while sim.running:
+            progress.spin(0.1)
+            now = time.monotonic()
+            for label, proc in procs.items():
+                if label != "sim" and not proc.running:
+                    raise RuntimeError(f"{label} exited with code {proc.proc.returncode}:\n{_tail(proc.output)}")
+            if now - last_print >= (1.0 if tty else 10.0):
+                last_print = now
+                pct = 100.0 * progress.sim_time / scenario.duration
+                _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s ({pct:5.1f} %)"
+                           f"{'  FALLEN' if progress.fallen else ''}", end="\r" if tty else "\n")
+            if scenario.end_on_target and progress.target_reached:
+                reason = "target reached"
+                sim.stop()
+                break
+            if now - wall_start > wall_timeout:
+                raise TimeoutError(f"wall-clock limit of {wall_timeout:g} s reached at sim time"
+                                   f" {progress.sim_time:.2f} s")
+        sim_wall = _stepping_wall_time(sim.output)
+        if sim.proc.returncode not in (0, -signal.SIGINT) and reason == "completed":
+            raise RuntimeError(f"sim exited with code {sim.proc.returncode}:\n{_tail(sim.output)}")
+        _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s: {reason}" + " " * 20)
+        progress.spin(0.3)  # let the last messages reach the recorder
+    except Interrupted as e:
+        code, reason = EXIT_INTERRUPTED, f"interrupted by {e}"
+    except (RuntimeError, TimeoutError, ConfigError) as e:
+        code, reason = EXIT_FAILED, f"failed: {e}"
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        # Stop the sources first, the recorder last, so it sees everything that was published.
+        for label in [lbl for lbl in procs if lbl != "recorder"] + (["recorder"] if "recorder" in procs else []):
+            procs[label].stop()
+        if progress is not None:
+            progress.close()
+    if code != 0:
+        _say(opts, f"run_scenario: {reason}")
+    metrics = analyse(run_dir, bag_dir, scenario.name, seed, sim_wall, time.monotonic() - wall_start, reason, opts)
+    if metrics is None and code == 0:
+        code = EXIT_FAILED
+    return code, run_dir
+
+
+def analyse(run_dir: Path, bag_dir: Path, name: str, seed: int, wall: float | None, total_wall: float,
+            reason: str, opts: RunOptions) -> dict[str, Any] | None:
+    """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
+    try:
+        info = bag_info(bag_dir)
+        series = series_from_messages(read_messages(bag_dir))
+        metrics = compute_metrics(series, name, seed, wall if wall is not None else total_wall)
+    except Exception as e:  # whatever the recording lacks: report it, keep the bag
+        _say(opts, f"run_scenario: cannot measure the recording in {bag_dir}: {e}")
+        return None
+    metrics["ended_by"] = reason
+    metrics["run_wall_time_s"] = total_wall  # including start-up, discovery, shutdown and analysis start
+    metrics["bag"] = {"path": str(bag_dir), "storage": info["storage_identifier"],
+                      "message_count": info["message_count"]}
+    (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    figures = response_figures(series, run_dir, name) if opts.figures else []
+    _say(opts, summary(metrics, run_dir, figures))
+    return metrics
+
+
+def summary(m: dict[str, Any], run_dir: Path, figures: list[Path]) -> str:
+    def f(x: Any, fmt: str = ".4g") -> str:
+        return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)
+
+    lines = [
+        f"{m['scenario']}: {f(m['sim_time_s'], '.2f')} s sim in {f(m['wall_time_s'], '.2f')} s wall"
+        f" (real-time factor {f(m['real_time_factor'], '.2f')}), fallen {m['fallen']},"
+        f" lockstep timeouts {m['lockstep_timeouts']}",
+        f"  pitch [{f(m['pitch_min_rad'])}, {f(m['pitch_max_rad'])}] rad, settles within"
+        f" {m['pitch_band_rad']} rad after {f(m['pitch_settle_time_s'], '.3f')} s;"
+        f" v rmse {f(m['v_rmse'])} m/s, w rmse {f(m['w_rmse'])} rad/s, max torque {f(m['max_torque_nm'])} N·m",
+    ]
+    for key, unit in (("velocity_step", "m/s"), ("yaw_rate_step", "rad/s")):
+        r = m.get(key)
+        if r:
+            lines.append(
+                f"  {key}: {r['initial']:g} -> {r['final']:g} {unit} at {r['step_time_s']:.3f} s: settles (5 %) in"
+                f" {f(r['settle_time_s'], '.3f')} s, overshoot {r['overshoot_pct']:.2f} %, steady-state error"
+                f" {r['steady_state_error_pct']:.2f} %, wrong-way dip {r['undershoot']:.4f} {unit}"
+            )
+    lines.append(f"  wrote {run_dir / 'metrics.json'}" + (f" and {len(figures)} figures" if figures else "")
+                 + f"; bag in {run_dir / 'bag'}")
+    return "\n".join(lines)
+
+
+def _stepping_wall_time(sim_log: str) -> float | None:
+    """The wall time the simulator spent stepping (its own measurement, without start-up and discovery)."""
+    found = re.search(r"exchanges in ([0-9.]+) s wall", sim_log)
+    return float(found.group(1)) if found else None
+
+
+def _tail(text: str, lines: int = 15) -> str:
+    return "\n".join(text.strip().splitlines()[-lines:])
+
+
+def _wait_for_line(proc: NodeProcess, needle: str, timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if needle in proc.output:
+            return
+        if not proc.running:
+            raise RuntimeError(f"{proc.name} exited with code {proc.proc.returncode}:\n{_tail(proc.output)}")
+        time.sleep(0.05)
+    raise TimeoutError(f"{proc.name} did not report '{needle}' within {timeout:g} s")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="run_scenario", description=__doc__.split("\n")[0])
+    ap.add_argument("scenario", nargs="?", default="step", help="scenario name or file (default: step)")
+    ap.add_argument("--out", type=Path, default=Path("runs"), help="where run directories go (default: runs)")
+    ap.add_argument("--seed", type=int, help="override the scenario's seed")
+    ap.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: the environment's)")
+    ap.add_argument("--wall-timeout", type=float, help="give up after this many wall seconds")
+    ap.add_argument("--no-figures", action="store_true")
+    ap.add_argument("--quiet", action="store_true")
+    a = ap.parse_args(argv)
+    opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet)
+    try:
+        code, _ = run(opts)
+    except ConfigError as e:
+        print(f"run_scenario: {e}", file=sys.stderr)
+        return 2
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
