@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from mcap_ros2.reader import read_ros2_messages
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 
 class BagError(RuntimeError):
@@ -43,6 +44,8 @@ def read_messages(bag_dir: Path, topics: Iterable[str] | None = None) -> dict[st
     wanted = None if topics is None else list(topics)
     for path in mcap_files(bag_dir):
         with path.open("rb") as f:
-            for m in read_ros2_messages(f, topics=wanted):
-                out[m.channel.topic].append((m.log_time_ns, m.ros_msg))
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            for _schema, channel, message, decoded in reader.iter_decoded_messages(topics=wanted,
+                                                                                   log_time_order=True):
+                out[channel.topic].append((message.log_time, decoded))
     return dict(out)

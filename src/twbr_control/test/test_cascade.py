@@ -1,0 +1,105 @@
+"""The cascade's structure: signs, allocation with balance first, limits, fall cut-off, enable, time."""
+
+import pytest
+from twbr_control.cascade import CascadeController
+from twbr_control.controller_params import CONTROL_SPECS
+from twbr_control.state_sync import Action, StateSync
+
+from twbr_common.params import defaults
+
+DT = 0.005
+
+
+def make(**overrides):
+    return CascadeController({**defaults(CONTROL_SPECS), **overrides})
+
+
+def test_forward_lean_is_caught_by_driving_the_wheels_forward():
+    out = make().compute(0.0, 0.0, 0.0, velocity=0.0, yaw_rate=0.0, pitch=0.05, pitch_rate=0.0)
+    assert out.left_torque > 0 and out.right_torque > 0 and out.left_torque == out.right_torque
+
+
+def test_speeding_up_asks_for_a_forward_lean_and_first_drives_the_wheels_back():
+    out = make().compute(0.0, 0.5, 0.0, velocity=0.0, yaw_rate=0.0, pitch=0.0, pitch_rate=0.0)
+    assert out.pitch_ref > 0
+    assert out.common_torque < 0  # the non-minimum-phase start: roll back to lean forward
+
+
+def test_positive_yaw_rate_reference_drives_the_right_wheel_harder():
+    out = make().compute(0.0, 0.0, 1.0, velocity=0.0, yaw_rate=0.0, pitch=0.0, pitch_rate=0.0)
+    assert out.right_torque > 0 > out.left_torque
+    assert out.differential_torque == pytest.approx(out.right_torque)
+
+
+def test_balance_keeps_priority_over_turning_at_the_torque_limit():
+    c = make(**{"max_wheel_torque": 2.0, "yaw_rate.kp": 100.0})
+    out = c.compute(0.0, 0.0, 3.0, velocity=0.0, yaw_rate=0.0, pitch=0.03, pitch_rate=0.0)
+    assert abs(out.common_torque) < 2.0
+    assert max(abs(out.left_torque), abs(out.right_torque)) == pytest.approx(2.0)
+    assert out.torque_saturated
+    # The common part is whole: left + right = 2 common.
+    assert out.left_torque + out.right_torque == pytest.approx(2 * out.common_torque)
+
+
+def test_references_are_clipped_and_a_stale_cmd_vel_zeroes_them():
+    c = make(max_velocity_ref=0.5, max_yaw_rate_ref=1.0)
+    out = c.compute(0.0, 9.0, -9.0, 0.0, 0.0, 0.0, 0.0)
+    assert (out.velocity_ref, out.yaw_rate_ref) == (0.5, -1.0)
+    out = c.compute(DT, 9.0, -9.0, 0.0, 0.0, 0.0, 0.0, cmd_vel_stale=True)
+    assert (out.velocity_ref, out.yaw_rate_ref) == (0.0, 0.0) and out.cmd_vel_stale
+
+
+def test_fall_cuts_torque_until_reenabled():
+    c = make(fall_pitch=0.5)
+    out = c.compute(0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.0)
+    assert out.fallen and out.left_torque == 0.0 == out.right_torque
+    out = c.compute(DT, 0.0, 0.0, 0.0, 0.0, 0.1, 0.0)  # stood up again: still cut until enabled
+    assert out.fallen and out.left_torque == 0.0
+    c.set_enabled(True)
+    out = c.compute(2 * DT, 0.0, 0.0, 0.0, 0.0, 0.1, 0.0)
+    assert not out.fallen and out.left_torque > 0
+
+
+def test_disabled_means_zero_torque_and_fresh_loops_on_enable():
+    c = make()
+    for k in range(50):
+        c.compute(k * DT, 0.3, 0.0, 0.0, 0.0, 0.01, 0.0)
+    assert c.velocity_pid.integral != 0.0
+    c.set_enabled(False)
+    out = c.compute(50 * DT, 0.3, 0.0, 0.0, 0.0, 0.01, 0.0)
+    assert out.left_torque == 0.0 == out.right_torque and not out.enabled
+    c.set_enabled(True)
+    assert c.velocity_pid.integral == 0.0
+
+
+def test_sample_time_comes_from_the_stamps():
+    c = make()
+    assert c.compute(1.0, 0, 0, 0, 0, 0, 0).dt == pytest.approx(DT)  # first sample: the nominal period
+    assert c.compute(1.007, 0, 0, 0, 0, 0, 0).dt == pytest.approx(0.007)
+    assert c.compute(2.0, 0, 0, 0, 0, 0, 0).dt == pytest.approx(DT)  # a gap past max_sample_gap
+    assert c.compute(0.5, 0, 0, 0, 0, 0, 0).dt == pytest.approx(DT)  # time went back: fresh start
+
+
+def test_state_sync_pairs_equal_stamps_and_repeats_a_reoffered_state():
+    sync = StateSync(rate=200.0, tolerance=0.001)
+    assert sync.offer_odom(0.0, 0.1, 0.0)[0] is Action.WAIT
+    action, state = sync.offer_imu(0.0, 0.02, 0.0)
+    assert action is Action.COMPUTE and state.pitch == 0.02 and state.velocity == 0.1
+    assert sync.offer_odom(0.0, 0.1, 0.0)[0] is Action.REPEAT
+    # A new odom with the old imu is not a state; the matching imu completes it.
+    assert sync.offer_odom(0.005, 0.2, 0.0)[0] is Action.WAIT
+    action, state = sync.offer_imu(0.005, 0.03, 0.0)
+    assert action is Action.COMPUTE and state.stamp == 0.005 and state.velocity == 0.2
+
+
+def test_state_sync_decimates_fast_states_to_the_control_rate():
+    sync = StateSync(rate=200.0, tolerance=0.0)
+    computed = []
+    for k in range(1000):  # 1 s of states at 1 kHz
+        t = k * 0.001
+        sync.offer_odom(t, 0.0, 0.0)
+        if sync.offer_imu(t, 0.0, 0.0)[0] is Action.COMPUTE:
+            computed.append(t)
+    gaps = [round(b - a, 6) for a, b in zip(computed[1:], computed[2:], strict=False)]
+    assert set(gaps) == {0.005}  # 200 Hz once on schedule
+    assert len(computed) in (200, 201)

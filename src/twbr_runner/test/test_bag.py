@@ -1,0 +1,60 @@
+"""Bags written with rosbags read back with the mcap libraries, our own types included."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+from ament_index_python.packages import get_package_share_directory
+from rosbags.typesys import Stores, get_typestore
+from twbr_runner.bag_reader import BagError, bag_info, read_messages
+from twbr_runner.bag_writer import BagWriter, typestore_with
+
+
+def _share(package: str) -> Path:
+    return Path(get_package_share_directory(package))
+
+
+def test_round_trip_through_a_different_library(tmp_path):
+    store = typestore_with(["twbr_msgs/msg/WheelTorques", "twbr_msgs/msg/ObstacleArray"], _share)
+    wt = store.types["twbr_msgs/msg/WheelTorques"]
+    header = store.types["std_msgs/msg/Header"]
+    time = store.types["builtin_interfaces/msg/Time"]
+    writer = BagWriter(tmp_path / "bag", store)
+    writer.add_topic("/wheel_torque_cmd", "twbr_msgs/msg/WheelTorques")
+    for k in range(5):
+        msg = wt(header=header(stamp=time(sec=0, nanosec=5_000_000 * k), frame_id="base_link"),
+                 left=0.5 * k, right=-0.25 * k)
+        writer.write("/wheel_torque_cmd", 1_000 + k, store.serialize_cdr(msg, "twbr_msgs/msg/WheelTorques"))
+    writer.close()
+
+    info = bag_info(tmp_path / "bag")
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap" and info["message_count"] == 5
+    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+    assert topics["/wheel_torque_cmd"]["topic_metadata"]["type"] == "twbr_msgs/msg/WheelTorques"
+    msgs = read_messages(tmp_path / "bag")["/wheel_torque_cmd"]
+    assert [t for t, _ in msgs] == [1000, 1001, 1002, 1003, 1004]
+    assert [(m.left, m.right, m.header.stamp.nanosec) for _, m in msgs][3] == (1.5, -0.75, 15_000_000)
+
+
+def test_an_unclosed_bag_is_reported_not_guessed(tmp_path):
+    (tmp_path / "bag").mkdir()
+    with pytest.raises(BagError, match="metadata.yaml"):
+        bag_info(tmp_path / "bag")
+
+
+def test_typestore_learns_only_what_jazzy_lacks():
+    jazzy = get_typestore(Stores.ROS2_JAZZY)
+    assert "twbr_msgs/msg/ControllerState" not in jazzy.types
+    store = typestore_with(["twbr_msgs/msg/ControllerState", "nav_msgs/msg/Odometry"], _share)
+    assert "twbr_msgs/msg/ControllerState" in store.types and "twbr_msgs/msg/Obstacle" in store.types
+
+
+def test_metadata_is_what_ros2_bag_info_reads(tmp_path):
+    store = typestore_with([], _share)
+    writer = BagWriter(tmp_path / "bag", store)
+    writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    writer.close()
+    meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    for key in ("version", "storage_identifier", "duration", "starting_time", "message_count",
+                "topics_with_message_count", "relative_file_paths", "files"):
+        assert key in meta
