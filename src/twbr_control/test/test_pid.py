@@ -3,6 +3,7 @@
 import math
 
 import pytest
+
 from twbr_control.pid import Pid, PidGains
 
 DT = 0.005

@@ -6,6 +6,7 @@ import pytest
 import yaml
 from ament_index_python.packages import get_package_share_directory
 from rosbags.typesys import Stores, get_typestore
+
 from twbr_runner.bag_reader import BagError, bag_info, read_messages
 from twbr_runner.bag_writer import BagWriter, typestore_with
 
@@ -38,7 +39,7 @@ def test_round_trip_through_a_different_library(tmp_path):
 
 def test_an_unclosed_bag_is_reported_not_guessed(tmp_path):
     (tmp_path / "bag").mkdir()
-    with pytest.raises(BagError, match="metadata.yaml"):
+    with pytest.raises(BagError, match=r"metadata\.yaml"):
         bag_info(tmp_path / "bag")
 
 

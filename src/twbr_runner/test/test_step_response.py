@@ -6,11 +6,11 @@ test/test_e2e_runner.py checks the same figures through the real nodes and the r
 
 import numpy as np
 import pytest
+
+from twbr_common.params import defaults
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_runner.response import settle_time, step_response
 from twbr_runner.tuning import check_step, lqr_balance_gains, velocity_step, yaw_rate_step
-
-from twbr_common.params import defaults
 
 GAINS = defaults(CONTROL_SPECS)  # the shipped gains (== config/controller.yaml, checked below)
 TORQUE_LIMIT = 15.0
@@ -62,6 +62,7 @@ def test_untuned_lqr_start_is_worse_than_the_shipped_gains():
 
 def test_config_file_carries_the_shipped_gains():
     import yaml
+
     from twbr_sim.scenario_files import config_dir
 
     params = yaml.safe_load((config_dir() / "controller.yaml").read_text())["controller_node"]["ros__parameters"]

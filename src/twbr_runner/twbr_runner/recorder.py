@@ -5,7 +5,8 @@
 
 Topics named with their type are subscribed at once, before any publisher exists (so nothing published
 after discovery is missed); others are subscribed when they appear in the graph (polled every 0.1 s),
-with the reliability and durability their publishers offer, as rosbag2 does. Messages are stored as the
+with the reliability and durability their publishers offer, as rosbag2 does. Each new publisher match
+is logged ("matched N publisher(s) on /topic"), which is what a runner waits for. Messages are stored as the
 CDR bytes received, stamped with the wall-clock time of receipt. SIGINT/SIGTERM close the bag cleanly.
 """
 
@@ -47,10 +48,11 @@ class Recorder(Node):
         self.wanted = {self.resolve_topic_name(t): kind for t, kind in topics.items()}
         self.record_all = record_all
         self._recorded: dict[str, object] = {}
+        self._matched: dict[str, int] = {}
         for topic, msgtype in self.wanted.items():
             if msgtype:
                 self._subscribe(topic, msgtype, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
-        self.create_timer(0.1, self._discover)
+        self.create_timer(0.05, self._discover)
         self.get_logger().info(f"recording to {output}: {len(self._recorded)} topics subscribed"
                                f"{', and any others that appear' if record_all else ''}")
 
@@ -65,7 +67,18 @@ class Recorder(Node):
             raw=True,
         )
 
+    def _report_matches(self) -> None:
+        """Log each new publisher match: a runner starts the clock only once its sources are matched."""
+        for topic, sub in self._recorded.items():
+            if sub is None:
+                continue
+            count = sub.get_publisher_count()
+            if count > self._matched.get(topic, 0):
+                self.get_logger().info(f"matched {count} publisher(s) on {topic}")
+            self._matched[topic] = count
+
     def _discover(self) -> None:
+        self._report_matches()
         for topic, types in self.get_topic_names_and_types():
             if topic in self._recorded or topic in SKIPPED:
                 continue

@@ -61,6 +61,7 @@ class NodeSpec:
     executable: str
     ros_args: list[str]
     args: list[str] = field(default_factory=list)
+    recorded: tuple[str, ...] = ()  # topics it publishes that the recorder must have matched before the sim starts
 
 
 @dataclass
@@ -86,11 +87,13 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
         NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics]),
-        NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml")),
+        NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml"),
+                 recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
     if scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
-                              [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"]))
+                              [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
+                              recorded=("/cmd_vel",)))
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
         *_params(config, "robot.yaml", "sim.yaml"),
         "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
@@ -184,6 +187,11 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     try:
         progress = Progress(domain)
         for spec in nodes:
+            if spec.label == "sim":
+                # Discovery between two processes can take seconds: start the clock only once the
+                # recorder hears every other source, so the bag has the run from t = 0.
+                for topic in (t for s in nodes for t in s.recorded):
+                    _wait_for_line(procs["recorder"], f"publisher(s) on {topic}", 30.0)
             procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, env, log_dir, spec.label,
                                            spec.args)
             if spec.label == "recorder":

@@ -1,0 +1,240 @@
+"""The controller node and the scenario runner as real processes: step responses from the recorded bag,
+stale and bad cmd_vel, falls, the enable service, bad parameters, Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import CONFIG
+from geometry_msgs.msg import Twist, TwistStamped
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_srvs.srv import SetBool
+
+from twbr_msgs.msg import ControllerState, SimStatus
+from twbr_runner.bag_reader import bag_info, read_messages
+from twbr_runner.metrics import compute_metrics, series_from_messages
+
+pytestmark = pytest.mark.e2e
+
+RELIABLE = QoSProfile(depth=50, reliability=ReliabilityPolicy.RELIABLE)
+SIM_PARAMS = ("robot.yaml", "sim.yaml")
+TORQUE_LIMIT = 15.0
+
+
+def run_scenario(tmp_path, domain: int, *args: str, timeout: float = 240.0) -> subprocess.CompletedProcess:
+    env = {**os.environ, "ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    return subprocess.run(
+        [sys.executable, "-m", "twbr_runner.runner", *args, "--out", str(tmp_path), "--domain", str(domain)],
+        env=env, capture_output=True, text=True, timeout=timeout,
+    )
+
+
+def only_run_dir(tmp_path):
+    dirs = [d for d in tmp_path.iterdir() if d.is_dir()]
+    assert len(dirs) == 1, dirs
+    return dirs[0]
+
+
+def test_step_scenario_through_the_runner_meets_the_paper_from_the_bag(tmp_path, ros_domain):
+    done = run_scenario(tmp_path, ros_domain, "step")
+    assert done.returncode == 0, done.stdout + done.stderr
+    run = only_run_dir(tmp_path)
+    metrics = json.loads((run / "metrics.json").read_text())
+    for png in ("response.png", "velocity.png", "yaw_rate.png", "pitch.png", "wheel_torques.png"):
+        assert (run / png).stat().st_size > 10_000, png
+
+    # The bag, read with the mcap libraries (it was written with rosbags), holds every topic of the run.
+    info = bag_info(run / "bag")
+    assert info["storage_identifier"] == "mcap" and info["version"] == 9
+    messages = read_messages(run / "bag")
+    for topic in ("/clock", "/tf", "/odom", "/imu", "/joint_states", "/wheel_torque_cmd", "/controller_state",
+                  "/cmd_vel", "/sim_status"):
+        assert messages.get(topic), topic
+    # Lockstep: one state and one command per 5 ms of the 6 s, none lost on the way to the recorder.
+    stamps = {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in messages["/wheel_torque_cmd"]}
+    assert len(stamps) == 1201
+    assert metrics["lockstep_timeouts"] == 0
+
+    # The metrics file says what the bag says.
+    again = compute_metrics(series_from_messages(messages), "step", 0, metrics["wall_time_s"])
+    for key in ("sim_time_s", "pitch_max_rad", "v_rmse", "max_torque_nm", "velocity_step"):
+        assert again[key] == metrics[key], key
+    for key in ("scenario", "seed", "sim_time_s", "wall_time_s", "real_time_factor", "fallen", "pitch_min_rad",
+                "pitch_max_rad", "pitch_settle_time_s", "v_rmse", "w_rmse", "max_torque_nm", "lockstep_timeouts"):
+        assert key in metrics, key
+
+    # The paper's Figure 6, as the issue states it.
+    step = metrics["velocity_step"]
+    assert metrics["sim_time_s"] == pytest.approx(6.0) and not metrics["fallen"]
+    assert step["final"] == pytest.approx(0.1) and 1.0 <= step["step_time_s"] <= 1.03
+    assert step["undershoot"] > 0.005  # rolls back first
+    assert step["settle_time_s"] <= 1.5 and step["overshoot_pct"] < 20.0 and step["steady_state_error_pct"] < 2.0
+    assert abs(metrics["pitch_final_rad"]) < 0.005 and metrics["pitch_settle_time_s"] < 4.0
+    assert metrics["max_torque_nm"] < TORQUE_LIMIT and metrics["max_delivered_torque_nm"] < TORQUE_LIMIT
+    assert "step" in done.stdout and "settles" in done.stdout
+
+
+def test_yaw_rate_step_through_the_runner(tmp_path, ros_domain):
+    done = run_scenario(tmp_path, ros_domain, "yaw_step", "--no-figures")
+    assert done.returncode == 0, done.stdout + done.stderr
+    metrics = json.loads((only_run_dir(tmp_path) / "metrics.json").read_text())
+    yaw = metrics["yaw_rate_step"]
+    assert yaw["final"] == pytest.approx(0.5)
+    assert yaw["settle_time_s"] <= 1.5 and yaw["steady_state_error_pct"] < 2.0
+    assert not metrics["fallen"] and metrics["lockstep_timeouts"] == 0
+    assert metrics["velocity_step"]["settle_time_s"] <= 1.5  # the forward step while turning
+
+
+def test_ctrl_c_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domain):
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twbr_runner.runner", "dynamic_obstacles", "--out", str(tmp_path), "--domain",
+         str(ros_domain), "--no-figures"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list(tmp_path.glob("*/logs/sim.err")):
+        time.sleep(0.2)
+    run = only_run_dir(tmp_path)
+    time.sleep(5.0)  # mid-run: the scenario is 90 s of sim time
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, out
+    assert "interrupted by SIGINT" in out
+    # No process of the run is left: the command lines name the run's bag or parameter files.
+    leftover = subprocess.run(["pgrep", "-f", str(tmp_path)], capture_output=True, text=True).stdout.split()
+    assert leftover == []
+    info = bag_info(run / "bag")  # closed cleanly: metadata written
+    assert info["message_count"] > 0
+    assert read_messages(run / "bag", ["/odom"])["/odom"]
+
+
+class ControllerHarness:
+    """sim_node (robot alone) + controller_node as processes; the test plays cmd_vel and watches."""
+
+    def __init__(self, launch, ros, *controller_args: str, stamped: bool = False, sim_args: tuple = ()) -> None:
+        self.states: list[ControllerState] = []
+        self.status: list[SimStatus] = []
+        ros.node.create_subscription(ControllerState, "controller_state", self.states.append, RELIABLE)
+        ros.node.create_subscription(SimStatus, "sim_status", self.status.append, RELIABLE)
+        self.pub = ros.node.create_publisher(TwistStamped if stamped else Twist, "cmd_vel", RELIABLE)
+        self.controller = launch("twbr_control", "controller_node", *controller_args,
+                                 *(["-p", "enable_stamped_cmd_vel:=true"] if stamped else []),
+                                 params=("controller.yaml",))
+        self.sim = launch("twbr_sim", "sim_node", "-p", "wait_for_subscribers:=1", *sim_args, params=SIM_PARAMS)
+        self.ros = ros
+        assert ros.spin_until(lambda: len(self.states) > 20, 30.0), self.controller.output + self.sim.output
+
+    def sim_time(self) -> float:
+        s = self.states[-1].header.stamp
+        return s.sec + s.nanosec * 1e-9
+
+    def run_until(self, t: float, every=None, timeout: float = 60.0) -> None:
+        def done() -> bool:
+            if every is not None:
+                every()
+            return self.sim_time() >= t
+
+        assert self.ros.spin_until(done, timeout)
+
+
+def test_stale_cmd_vel_zeroes_the_references_and_the_robot_balances_in_place(launch, ros):
+    h = ControllerHarness(launch, ros)
+    fwd = Twist()
+    fwd.linear.x = 0.3
+    h.run_until(3.0, every=lambda: h.pub.publish(fwd))
+    assert h.states[-1].velocity_ref == pytest.approx(0.3) and not h.states[-1].cmd_vel_stale
+    moving = h.states[-1].velocity
+    assert moving == pytest.approx(0.3, abs=0.03)
+    silent_from = h.sim_time()
+    h.run_until(silent_from + 4.0)  # nobody publishes cmd_vel any more
+    stale = [s for s in h.states if s.cmd_vel_stale]
+    first = stale[0].header.stamp.sec + stale[0].header.stamp.nanosec * 1e-9
+    assert first - silent_from <= 0.5 + 0.1  # cmd_vel_timeout, give or take the last publications
+    assert all(s.velocity_ref == 0.0 and s.yaw_rate_ref == 0.0 for s in stale)
+    assert abs(h.states[-1].velocity) < 0.01  # stopped ...
+    assert abs(h.states[-1].pitch) < 0.01 and not any(s.fallen for s in h.status)  # ... and balancing
+
+
+def test_nan_cmd_vel_never_reaches_the_motors_and_stamped_cmd_vel_works(launch, ros):
+    h = ControllerHarness(launch, ros, stamped=True)
+    good, bad = TwistStamped(), TwistStamped()
+    good.twist.angular.z = 0.5
+    bad.twist.linear.x = math.nan
+
+    def publish_both() -> None:
+        for msg in (good, bad):
+            msg.header.stamp = h.states[-1].header.stamp
+            h.pub.publish(msg)
+
+    h.run_until(3.0, every=publish_both)
+    last = h.states[-1]
+    assert last.yaw_rate_ref == pytest.approx(0.5) and last.velocity_ref == 0.0
+    assert all(math.isfinite(s.left_torque) and math.isfinite(s.right_torque) for s in h.states)
+    assert last.yaw_rate == pytest.approx(0.5, abs=0.03)
+    assert "dropped cmd_vel: non-finite value" in h.controller.output
+
+
+def test_fall_cuts_the_torque_and_enable_restarts_the_loops(launch, ros, tmp_path):
+    tilted = tmp_path / "tilted.yaml"
+    tilted.write_text("name: tilted\nduration: 30\nrobot: {pitch: 0.4}\n")  # past fall_pitch 0.3
+    h = ControllerHarness(launch, ros, "-p", "fall_pitch:=0.3", sim_args=("-p", f"scenario:={tilted}"))
+    h.run_until(0.5)
+    falls = [s for s in h.states if s.fallen]
+    assert falls and all(s.left_torque == 0.0 == s.right_torque for s in falls)
+    assert "fallen: |pitch|" in h.controller.output
+    client = ros.node.create_client(SetBool, "/controller_node/enable")
+    assert client.wait_for_service(timeout_sec=10.0)
+    future = client.call_async(SetBool.Request(data=True))
+    assert ros.spin_until(future.done, 10.0) and future.result().success
+    # The simulated robot lies on the floor (|pitch| > fall_pitch): the controller falls again at once,
+    # from fresh loops, and never drives the wheels of a fallen robot.
+    n = len(h.states)
+    h.run_until(h.sim_time() + 0.5)
+    assert all(s.fallen and s.left_torque == 0.0 for s in h.states[n + 1:])
+
+
+BAD_STARTS = [
+    (["-p", "velocity.kp:=-1.0"], "invalid parameter 'velocity.kp' = -1.0", "[0, 100] rad·s/m"),
+    (["-p", "rate:=0.0"], "invalid parameter 'rate' = 0.0", "[1, 2000] Hz"),
+    (["-p", "max_wheel_torque:=0.0"], "invalid parameter 'max_wheel_torque' = 0.0", "(0, 1000] N·m"),
+    (["-p", "velocity.setpoint_weight:=1.5"], "'velocity.setpoint_weight' = 1.5", "[0, 1]"),
+    (["-p", "cmd_vel_timeout:=fast"], "invalid parameter 'cmd_vel_timeout' = 'fast'", "[0.01, 60] s"),
+]
+
+
+@pytest.mark.parametrize(("args", "names", "valid"), BAD_STARTS)
+def test_bad_controller_parameters_stop_the_node_with_one_clear_message(launch, args, names, valid):
+    proc = launch("twbr_control", "controller_node", *args, params=("controller.yaml",))
+    assert proc.wait(timeout=30) == 2
+    fatal = [line for line in proc.stderr.splitlines() if "FATAL" in line]
+    assert len(fatal) == 1, proc.stderr
+    assert names in fatal[0] and valid in fatal[0]
+    assert "Traceback" not in proc.output
+
+
+def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):
+    done = run_scenario(tmp_path, ros_domain, "nowhere")
+    assert done.returncode == 2
+    assert "invalid parameter 'scenario' = 'nowhere'" in done.stderr and "step" in done.stderr
+
+
+def test_shipped_controller_file_matches_the_parameter_table():
+    import yaml
+
+    from twbr_common.params import validate_all
+    from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
+
+    params = yaml.safe_load((CONFIG / "controller.yaml").read_text())["controller_node"]["ros__parameters"]
+    known = {s.name for s in (*CONTROL_SPECS, *NODE_SPECS)} | {"use_sim_time"}
+    assert set(params) <= known
+    validate_all(CONTROL_SPECS, {k: v for k, v in params.items() if k in {s.name for s in CONTROL_SPECS}})
+    assert np.isclose(params["rate"], 200.0)
