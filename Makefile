@@ -24,6 +24,7 @@ demo: setup
 bench: setup
 	@$(RUN) python benchmarks/bench_dynamics.py
 	@$(RUN) python benchmarks/bench_lockstep.py
+	@$(RUN) python benchmarks/bench_control_loop.py
 
 lint: setup
 	@$(RUN) ruff check src test tools benchmarks

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.executors import SingleThreadedExecutor
@@ -63,6 +64,8 @@ class SimNode(Node):
         self._matched = False
         self._commands_received = 0
         self._status_flags: tuple | None = None
+        self._published_at: float | None = None
+        self._latencies: list[float] = []
 
         self.pub_clock = self.create_publisher(Clock, "/clock", 10)
         self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
@@ -102,6 +105,9 @@ class SimNode(Node):
                 throttle_duration_sec=1.0,
             )
         if self._pending_ns is not None and stamp_ns(msg.header.stamp) == self._pending_ns:
+            if not self._matched and self._published_at is not None:
+                # State published -> its command received: the whole control loop over DDS.
+                self._latencies.append(time.perf_counter() - self._published_at)
             self._matched = True
 
     # --- outputs ------------------------------------------------------------------------------
@@ -109,6 +115,7 @@ class SimNode(Node):
         sim = self.sim
         now_ns = sim.step_count * self._step_ns
         stamp = to_stamp(now_ns)
+        self._published_at = time.perf_counter()
         self.pub_clock.publish(Clock(clock=stamp))
         s = sim.state
         q = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
@@ -233,9 +240,14 @@ class SimNode(Node):
             f"; {self._exchanges} exchanges in {wall:.3f} s wall: {self._exchanges / wall:.1f} exchanges/s,"
             f" real-time factor {(self.sim.time - self._sim_start) / wall:.2f}" if wall > 0 else ""
         )
+        latency = ""
+        if self._latencies:
+            ms = np.array(self._latencies) * 1e3
+            latency = (f"; command latency (state publish -> its command received) median"
+                       f" {np.median(ms):.3f} ms, p99 {np.percentile(ms, 99):.3f} ms over {len(ms)} exchanges")
         self.get_logger().info(
             f"stopped at t = {self.sim.time:.3f} s after {self.sim.step_count} steps,"
-            f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}"
+            f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}{latency}"
         )
 
     def _step_and_publish(self) -> None:
