@@ -12,7 +12,7 @@ SCENARIOS = sorted(p.stem for p in CONFIG.glob("*.yaml"))
 
 
 def test_the_papers_four_scenarios_ship():
-    assert SCENARIOS == ["dynamic_obstacles", "dynamic_target", "static", "step"]
+    assert {"dynamic_obstacles", "dynamic_target", "static", "step"} <= set(SCENARIOS)
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
