@@ -82,3 +82,13 @@ def ros(ros_domain: int):
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown(context=context)
+
+
+def assert_refused_at_start(proc: NodeProcess, *expected: str) -> None:
+    """The node exited with code 2 and one FATAL line that says every expected piece (name, range)."""
+    assert proc.wait(timeout=30) == 2
+    fatal = [line for line in proc.stderr.splitlines() if "FATAL" in line]
+    assert len(fatal) == 1, proc.stderr
+    for piece in expected:
+        assert piece in fatal[0], (piece, fatal[0])
+    assert "Traceback" not in proc.output

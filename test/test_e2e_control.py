@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import CONFIG
+from conftest import CONFIG, assert_refused_at_start
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
@@ -213,12 +213,8 @@ BAD_STARTS = [
 
 @pytest.mark.parametrize(("args", "names", "valid"), BAD_STARTS)
 def test_bad_controller_parameters_stop_the_node_with_one_clear_message(launch, args, names, valid):
-    proc = launch("twbr_control", "controller_node", *args, params=("controller.yaml",))
-    assert proc.wait(timeout=30) == 2
-    fatal = [line for line in proc.stderr.splitlines() if "FATAL" in line]
-    assert len(fatal) == 1, proc.stderr
-    assert names in fatal[0] and valid in fatal[0]
-    assert "Traceback" not in proc.output
+    assert_refused_at_start(launch("twbr_control", "controller_node", *args, params=("controller.yaml",)),
+                            names, valid)
 
 
 def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):

@@ -6,7 +6,7 @@ import itertools
 import math
 
 import pytest
-from conftest import CONFIG
+from conftest import CONFIG, assert_refused_at_start
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -253,12 +253,7 @@ BAD_STARTS = [
 @pytest.mark.parametrize(("node", "args", "names", "valid"), BAD_STARTS)
 def test_bad_parameters_stop_the_node_with_one_clear_message(launch, node, args, names, valid):
     params = SIM_PARAMS if node == "sim_node" else ("world.yaml",)
-    proc = launch("twbr_sim", node, *args, params=params)
-    assert proc.wait(timeout=30) == 2
-    fatal = [line for line in proc.stderr.splitlines() if "FATAL" in line]
-    assert len(fatal) == 1, proc.stderr
-    assert names in fatal[0] and valid in fatal[0]
-    assert "Traceback" not in proc.output
+    assert_refused_at_start(launch("twbr_sim", node, *args, params=params), names, valid)
 
 
 def test_malformed_scenario_file_stops_the_node_naming_the_field(launch, tmp_path):
