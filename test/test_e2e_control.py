@@ -234,3 +234,19 @@ def test_shipped_controller_file_matches_the_parameter_table():
     assert set(params) <= known
     validate_all(CONTROL_SPECS, {k: v for k, v in params.items() if k in {s.name for s in CONTROL_SPECS}})
     assert np.isclose(params["rate"], 200.0)
+
+
+def test_controller_follows_a_realtime_simulator_on_the_wall_clock(launch, ros):
+    """Realtime mode: the simulator steps on a wall timer like a robot; the controller keeps up at 200 Hz."""
+    h = ControllerHarness(launch, ros, sim_args=("-p", "mode:=realtime"))
+    fwd = Twist()
+    fwd.linear.x = 0.2
+    wall0, sim0 = time.monotonic(), h.sim_time()
+    h.run_until(sim0 + 3.0, every=lambda: h.pub.publish(fwd), timeout=20.0)
+    wall = time.monotonic() - wall0
+    assert wall == pytest.approx(3.0, rel=0.25)  # sim time follows the wall clock
+    recent = [s for s in h.states if s.header.stamp.sec + s.header.stamp.nanosec * 1e-9 > sim0 + 1.5]
+    dts = np.array([s.dt for s in recent])
+    assert np.median(dts) == pytest.approx(0.005, abs=1e-6)  # one command per 5 ms state
+    assert recent[-1].velocity == pytest.approx(0.2, abs=0.02)
+    assert not any(s.fallen for s in h.status)
