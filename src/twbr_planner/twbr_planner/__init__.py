@@ -1,1 +1,1 @@
-"""Artificial-potential-field planner (issue 5 fills this package)."""
+"""Artificial-potential-field planner: the core (apf) and the node (planner_node)."""

@@ -83,3 +83,32 @@ def run_closed_loop(
     names = [f.name for f in fields(ControlOutput)]
     outputs = {name: np.array([getattr(r, name) for r in rows], dtype=float) for name in names}
     return Trace(outputs["stamp"], outputs, path[:, 0], path[:, 1], path[:, 2], path[:, 3], simulator.fallen)
+
+
+def planner_reference(planner: Mapping[str, Any] | None = None, rate: float = 20.0,
+                      log: list | None = None) -> Reference:
+    """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz]."""
+    from twbr_planner.apf import ApfPlanner, Obstacles, Target
+    from twbr_planner.planner_params import APF_SPECS
+
+    cfg = validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})})
+    core = ApfPlanner(cfg)
+    period = 1.0 / rate
+    held = {"next": 0.0, "cmd": (0.0, 0.0)}
+
+    def reference(t: float, sim: Simulator) -> tuple[float, float]:
+        if t + 1e-9 < held["next"]:
+            return held["cmd"]
+        held["next"] = t + period
+        s = sim.state
+        world = sim.world
+        state = world.target() if world is not None else None
+        target = Target(state.x, state.y, *state.velocity) if state is not None else None
+        obstacles = Obstacles.of([(o.id, o.x, o.y, o.radius) for o in world.obstacles()]) if world else Obstacles.empty()
+        out = core.step(t, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_XD], target, obstacles)
+        if log is not None:
+            log.append(out)
+        held["cmd"] = (out.velocity_cmd, out.yaw_rate_cmd)
+        return held["cmd"]
+
+    return reference

@@ -49,6 +49,8 @@ RECORDED_TOPICS = {
     "obstacles": "twbr_msgs/msg/ObstacleArray",
     "world_status": "twbr_msgs/msg/WorldStatus",
     "world_markers": "visualization_msgs/msg/MarkerArray",
+    "planner_state": "twbr_msgs/msg/PlannerState",
+    "planner_markers": "visualization_msgs/msg/MarkerArray",
 }
 EXIT_FAILED = 1
 EXIT_INTERRUPTED = 130
@@ -90,7 +92,10 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml"),
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
-    if scenario.commands:
+    if scenario.target is not None:
+        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", _params(config, "planner.yaml"),
+                              recorded=("/cmd_vel", "/planner_state")))
+    elif scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
                               [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
                               recorded=("/cmd_vel",)))

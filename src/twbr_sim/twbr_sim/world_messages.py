@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import math
 
-from builtin_interfaces.msg import Duration, Time
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Vector3
 from nav_msgs.msg import Odometry
-from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from twbr_common.geometry import quaternion_from_rpy
+from twbr_common.markers import Color, arrow, marker
 from twbr_msgs.msg import Obstacle, ObstacleArray, WorldStatus
 from twbr_sim.scenario import ObstacleSpec
 from twbr_sim.world import Assessment, TargetState
@@ -59,18 +59,8 @@ def world_status_message(a: Assessment, collision_count: int, stamp: Time, frame
     return msg
 
 
-def _marker(stamp: Time, frame: str, mid: int, kind: int, color: tuple[float, float, float, float]) -> Marker:
-    m = Marker()
-    m.header.stamp = stamp
-    m.header.frame_id = frame
-    m.ns = MARKER_NAMESPACE
-    m.id = mid
-    m.type = kind
-    m.action = Marker.ADD
-    m.pose.orientation.w = 1.0
-    m.color = ColorRGBA(r=color[0], g=color[1], b=color[2], a=color[3])
-    m.lifetime = Duration(sec=2)
-    return m
+def _marker(stamp: Time, frame: str, mid: int, kind: int, color: Color) -> Marker:
+    return marker(stamp, frame, MARKER_NAMESPACE, mid, kind, color)
 
 
 def world_markers(
@@ -86,10 +76,8 @@ def world_markers(
         out.markers.append(m)
         speed = math.hypot(o.vx, o.vy)
         if speed > 0.0:
-            a = _marker(stamp, frame, 200 + o.id, Marker.ARROW, (0.85, 0.25, 0.2, 1.0))
-            a.points = [Point(x=o.x, y=o.y, z=0.5), Point(x=o.x + 3.0 * o.vx, y=o.y + 3.0 * o.vy, z=0.5)]
-            a.scale.x, a.scale.y, a.scale.z = 0.05, 0.12, 0.15
-            out.markers.append(a)
+            out.markers.append(arrow(stamp, frame, MARKER_NAMESPACE, 200 + o.id, (o.x, o.y, 0.5),
+                                     (o.x + 3.0 * o.vx, o.y + 3.0 * o.vy, 0.5), (0.85, 0.25, 0.2, 1.0)))
     if target is not None:
         disc = _marker(stamp, frame, 1, Marker.CYLINDER, (0.1, 0.8, 0.2, 0.3))
         disc.pose.position.x, disc.pose.position.y = target.x, target.y
@@ -102,11 +90,6 @@ def world_markers(
         out.markers.append(star)
         if target.speed > 0.0:
             vx, vy = target.velocity
-            arrow = _marker(stamp, frame, 3, Marker.ARROW, (0.1, 0.8, 0.2, 1.0))
-            arrow.points = [
-                Point(x=target.x, y=target.y, z=0.2),
-                Point(x=target.x + 3.0 * vx, y=target.y + 3.0 * vy, z=0.2),
-            ]
-            arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.05, 0.12, 0.15
-            out.markers.append(arrow)
+            out.markers.append(arrow(stamp, frame, MARKER_NAMESPACE, 3, (target.x, target.y, 0.2),
+                                     (target.x + 3.0 * vx, target.y + 3.0 * vy, 0.2), (0.1, 0.8, 0.2, 1.0)))
     return out

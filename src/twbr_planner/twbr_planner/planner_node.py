@@ -1,0 +1,169 @@
+"""planner_node: the APF planner as a ROS 2 node (a thin adapter over twbr_planner.apf).
+
+Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward speed along its
+heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
+enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
+`rate` in odom stamps, so it runs on sim time and wall time alike. Obstacles are moved along their
+velocity to the odom stamp; a target or obstacle list older than world_timeout stops the robot.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import Twist, TwistStamped, Vector3
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from visualization_msgs.msg import MarkerArray
+
+from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.guard import InputGuard, Verdict
+from twbr_common.markers import arrow
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
+from twbr_common.ros_params import declare, run_node
+from twbr_common.timing import Decimator
+from twbr_msgs.msg import ObstacleArray, PlannerState
+from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
+from twbr_planner.planner_params import APF_SPECS, NODE_SPECS
+
+LATEST_WORLD_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
+FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
+# Arrow length per unit of force: the direction is what steers, the length only has to be readable.
+FORCE_SCALE = 0.2
+
+
+class PlannerNode(Node):
+    def __init__(self) -> None:
+        super().__init__("planner_node")
+        self.cfg = {**declare(self, APF_SPECS), **declare(self, NODE_SPECS)}
+        self.core = ApfPlanner(self.cfg)
+        self.odom_guard = InputGuard(self.cfg["odom_timeout"])
+        self._due = Decimator(self.cfg["rate"])
+        self._marker_due = Decimator(self.cfg["marker_rate"])
+        self._target: tuple[float, Target] | None = None
+        self._obstacles: tuple[float, ObstacleArray] | None = None
+        self.stamped = self.cfg["enable_stamped_cmd_vel"]
+        self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self.pub_state = self.create_publisher(PlannerState, "planner_state", SENSOR_PUB_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "planner_markers", WORLD_QOS)
+        # World topics first, and only their latest sample kept: after a stall the executor hands over the
+        # newest target and obstacles before the odom that triggers planning, never a queued old one.
+        self.create_subscription(Odometry, "target", self._on_target, LATEST_WORLD_QOS)
+        self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, LATEST_WORLD_QOS)
+        self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
+        self.get_logger().info(
+            f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"
+            f" K_o {self.cfg['k_o']:g}, rho_o {self.cfg['rho_o']:g} m, K_s {self.cfg['k_s']:g},"
+            f" v_max {self.cfg['v_max']:g} m/s"
+        )
+
+    # --- inputs -------------------------------------------------------------------------------
+    def _on_target(self, msg: Odometry) -> None:
+        o = msg.pose.pose.orientation
+        _, _, heading = rpy_from_quaternion(o.x, o.y, o.z, o.w)
+        speed = msg.twist.twist.linear.x
+        values = (msg.pose.pose.position.x, msg.pose.pose.position.y, heading, speed)
+        if not all(math.isfinite(v) for v in values):
+            self.get_logger().warn("dropped target: non-finite value", throttle_duration_sec=1.0)
+            return
+        target = Target(values[0], values[1], speed * math.cos(heading), speed * math.sin(heading))
+        self._target = (stamp_seconds(msg.header.stamp), target)
+
+    def _on_obstacles(self, msg: ObstacleArray) -> None:
+        numbers = [v for o in msg.obstacles for v in (o.position.x, o.position.y, o.velocity.x, o.velocity.y,
+                                                      o.radius)]
+        if not all(math.isfinite(v) for v in numbers) or any(o.radius < 0.0 for o in msg.obstacles):
+            self.get_logger().warn("dropped obstacles: non-finite value or negative radius",
+                                   throttle_duration_sec=1.0)
+            return
+        self._obstacles = (stamp_seconds(msg.header.stamp), msg)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        stamp = stamp_seconds(msg.header.stamp)
+        p, o = msg.pose.pose.position, msg.pose.pose.orientation
+        _, _, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
+        speed = msg.twist.twist.linear.x
+        verdict = self.odom_guard.offer(stamp, (p.x, p.y, yaw, speed), self.get_clock().now().nanoseconds * 1e-9)
+        if verdict is not Verdict.ACCEPTED:
+            self.get_logger().warn(f"dropped odom: {verdict.value}", throttle_duration_sec=1.0)
+            return
+        if self._due.due(stamp):
+            self._plan(msg, stamp, p.x, p.y, yaw, speed)
+
+    # --- planning -----------------------------------------------------------------------------
+    def _plan(self, odom: Odometry, stamp: float, x: float, y: float, yaw: float, speed: float) -> None:
+        timeout = self.cfg["world_timeout"]
+        if self._target is None or self._obstacles is None:
+            out = self.core.stopped(stamp, Mode.NO_TARGET)
+        elif stamp - self._target[0] > timeout or stamp - self._obstacles[0] > timeout:
+            out = self.core.stopped(stamp, Mode.STALE)
+            self.core.reset()
+            self.get_logger().warn("target or obstacles older than world_timeout: stopping",
+                                   throttle_duration_sec=2.0)
+        else:
+            out = self.core.step(stamp, x, y, yaw, speed, self._target[1], self._obstacles_at(stamp))
+        self._publish(odom, out, x, y)
+
+    def _obstacles_at(self, stamp: float) -> Obstacles:
+        """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
+        t0, msg = self._obstacles
+        age = max(0.0, stamp - t0)
+        return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius)
+                             for o in msg.obstacles])
+
+    def _publish(self, odom: Odometry, out: PlannerOutput, x: float, y: float) -> None:
+        twist = Twist()
+        twist.linear.x, twist.angular.z = out.velocity_cmd, out.yaw_rate_cmd
+        if self.stamped:
+            cmd = TwistStamped(twist=twist)
+            cmd.header.stamp = odom.header.stamp
+            cmd.header.frame_id = odom.child_frame_id or "base_link"
+            self.pub_cmd.publish(cmd)
+        else:
+            self.pub_cmd.publish(twist)
+        self.pub_state.publish(planner_state_message(out, odom))
+        if self._marker_due.due(out.stamp):
+            self.pub_markers.publish(force_markers(out, odom, x, y))
+
+
+def _vector(v: np.ndarray) -> Vector3:
+    return Vector3(x=float(v[0]), y=float(v[1]), z=0.0)
+
+
+def planner_state_message(out: PlannerOutput, odom: Odometry) -> PlannerState:
+    msg = PlannerState()
+    msg.header.stamp = odom.header.stamp
+    msg.header.frame_id = odom.header.frame_id or "odom"
+    msg.attractive_force = _vector(out.attractive_force)
+    msg.repulsive_force = _vector(out.repulsive_force)
+    msg.total_force = _vector(out.total_force)
+    msg.desired_heading = float(out.desired_heading)
+    msg.heading_error = float(out.heading_error)
+    msg.velocity_cmd = float(out.velocity_cmd)
+    msg.yaw_rate_cmd = float(out.yaw_rate_cmd)
+    msg.distance_to_target = float(out.distance_to_target)
+    msg.nearest_obstacle_distance = float(out.nearest_obstacle_distance)
+    msg.nearest_obstacle_id = int(out.nearest_obstacle_id)
+    msg.mode = out.mode.value
+    return msg
+
+
+def force_markers(out: PlannerOutput, odom: Odometry, x: float, y: float) -> MarkerArray:
+    frame = odom.header.frame_id or "odom"
+    markers = MarkerArray()
+    for mid, (name, force) in enumerate((("attractive", out.attractive_force), ("repulsive", out.repulsive_force),
+                                         ("total", out.total_force))):
+        end = (x + FORCE_SCALE * force[0], y + FORCE_SCALE * force[1], 0.6)
+        markers.markers.append(arrow(odom.header.stamp, frame, "twbr_planner_forces", mid, (x, y, 0.6), end,
+                                     FORCE_COLORS[name]))
+    return markers
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node("planner_node", PlannerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

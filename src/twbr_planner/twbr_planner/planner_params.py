@@ -1,0 +1,44 @@
+"""The planner's parameters: one table for the node, the headless runs and the README."""
+
+from __future__ import annotations
+
+from twbr_common.params import ParamSpec
+
+APF_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
+              low_open=True),
+    ParamSpec("k_v", 0.5, "K_v: attractive gain on the target's relative velocity (eq. 21)", "1/s", 0.0, 1000.0),
+    ParamSpec("k_o", 10.0, "K_o: repulsive gain (eq. 23)", "m²/s²", 0.0, 1e6),
+    ParamSpec("rho_o", 2.0, "rho_o: obstacle detection range, measured from the obstacle's surface", "m",
+              0.0, 100.0, low_open=True),
+    ParamSpec("k_s", 2.0, "K_s: yaw-rate gain on the heading error (eq. 27)", "1/s", 0.0, 100.0, low_open=True),
+    ParamSpec("v_max", 0.6, "v_max: forward speed away from obstacles (eq. 28)", "m/s", 0.0, 10.0, low_open=True),
+    ParamSpec("max_yaw_rate", 1.5, "limit of the yaw-rate command", "rad/s", 0.0, 20.0, low_open=True),
+    ParamSpec("robot_radius", 0.3, "robot footprint radius subtracted from obstacle distances (0: a point robot)",
+              "m", 0.0, 10.0),
+    ParamSpec("min_distance", 0.02, "distances below this count as this (the repulsion stays finite on contact)",
+              "m", 0.0, 1.0, low_open=True),
+    ParamSpec("capture_radius", 0.5, "a static target this close is reached: stop and balance", "m", 0.0, 100.0,
+              low_open=True),
+    ParamSpec("approach_gain", 1.0, "near a static target the speed is at most this times the distance", "1/s",
+              0.0, 100.0, low_open=True),
+    ParamSpec("slow_in_turns", True, "scale the speed by cos(heading error) (never negative): turn before driving"),
+    ParamSpec("max_acceleration", 0.06, "limit of the forward speed command's rate of change (a balancing robot"
+              " leans about a/g to accelerate)", "m/s²", 0.0, 100.0, low_open=True),
+    ParamSpec("max_yaw_acceleration", 1.0, "limit of the yaw-rate command's rate of change", "rad/s²", 0.0, 1000.0,
+              low_open=True),
+    ParamSpec("stuck_time", 8.0, "no progress over this long is reported as stuck (a local minimum)", "s",
+              0.1, 1000.0),
+    ParamSpec("stuck_progress", 0.2, "progress towards the target below this over stuck_time is no progress", "m",
+              0.0, 100.0),
+)
+
+NODE_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("rate", 20.0, "planning rate, in odom stamps", "Hz", 0.1, 1000.0),
+    ParamSpec("world_timeout", 0.5, "target or obstacles older than this (against the odom stamp) stop the robot",
+              "s", 0.01, 60.0),
+    ParamSpec("odom_timeout", 0.5, "odom stamped this much before the node's clock is stale and dropped", "s",
+              0.001, 60.0),
+    ParamSpec("enable_stamped_cmd_vel", False, "publish geometry_msgs/TwistStamped (Nav2's name) instead of Twist"),
+    ParamSpec("marker_rate", 5.0, "rate of the force markers", "Hz", 0.1, 100.0),
+)
