@@ -41,5 +41,7 @@ fi
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 100) + 101 ))}"
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
+# UDP on loopback, not shared memory: see LOOPBACK_TRANSPORT in twbr_common/processes.py.
+export FASTDDS_BUILTIN_TRANSPORTS="${FASTDDS_BUILTIN_TRANSPORTS:-UDPv4}"
 # Parameter and scenario files come from the checkout (edit them in place, no rebuild needed).
 export TWBR_CONFIG_DIR="${TWBR_CONFIG_DIR:-$TWBR_ROOT/config}"

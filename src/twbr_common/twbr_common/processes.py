@@ -23,26 +23,34 @@ def node_executable(package: str, name: str) -> Path:
     return path
 
 
+# Fast DDS's shared-memory transport stalled a publisher for up to ~1 s when a slow subscriber (a
+# recorder on a loaded 2-core machine) let its port fill up: the planner's cmd_vel went stale mid-run.
+# UDP on loopback never blocks the writer (reliable readers get resends) and stays on this machine.
+LOOPBACK_TRANSPORT = "UDPv4"
+
+
 def loopback_env(domain_id: int, base: dict[str, str] | None = None) -> dict[str, str]:
     """An environment whose DDS traffic stays on this machine, on its own domain."""
     env = dict(os.environ if base is None else base)
     env["ROS_DOMAIN_ID"] = str(domain_id)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env.pop("ROS_STATIC_PEERS", None)
+    env.setdefault("FASTDDS_BUILTIN_TRANSPORTS", LOOPBACK_TRANSPORT)
     env["PYTHONUNBUFFERED"] = "1"
     env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
     return env
 
 
 class NodeProcess:
-    def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str) -> None:
+    def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str, niceness: int = 0) -> None:
         self.name = name
         log_dir.mkdir(parents=True, exist_ok=True)
         self.stdout_path = log_dir / f"{name}.out"
         self.stderr_path = log_dir / f"{name}.err"
         self._out = self.stdout_path.open("w")
         self._err = self.stderr_path.open("w")
-        self.proc = subprocess.Popen(argv, env=env, stdout=self._out, stderr=self._err, start_new_session=True)
+        self.proc = subprocess.Popen(argv, env=env, stdout=self._out, stderr=self._err, start_new_session=True,
+                                     preexec_fn=(lambda: os.nice(niceness)) if niceness else None)
 
     def wait(self, timeout: float) -> int:
         return self.proc.wait(timeout=timeout)
@@ -84,8 +92,9 @@ class NodeProcess:
 
 def start_node(
     package: str, name: str, ros_args: list[str], env: dict[str, str], log_dir: Path, label: str | None = None,
-    args: list[str] | None = None,
+    args: list[str] | None = None, niceness: int = 0,
 ) -> NodeProcess:
-    """`ros2 run <package> <name> [args] --ros-args <ros_args>` as its own process group."""
+    """`ros2 run <package> <name> [args] --ros-args <ros_args>` as its own process group (niceness > 0:
+    it yields the CPU to the others, as a recorder beside a control loop should)."""
     argv = [str(node_executable(package, name)), *(args or []), "--ros-args", *ros_args]
-    return NodeProcess(argv, env, log_dir, label or name)
+    return NodeProcess(argv, env, log_dir, label or name, niceness)

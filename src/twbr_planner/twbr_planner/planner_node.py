@@ -123,7 +123,7 @@ class PlannerNode(Node):
             self.pub_cmd.publish(cmd)
         else:
             self.pub_cmd.publish(twist)
-        self.pub_state.publish(planner_state_message(out, odom))
+        self.pub_state.publish(planner_state_message(out, odom, self.cfg))
         if self._marker_due.due(out.stamp):
             self.pub_markers.publish(force_markers(out, odom, x, y))
 
@@ -132,8 +132,10 @@ def _vector(v: np.ndarray) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=0.0)
 
 
-def planner_state_message(out: PlannerOutput, odom: Odometry) -> PlannerState:
+def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict) -> PlannerState:
     msg = PlannerState()
+    for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance"):
+        setattr(msg, name, float(cfg[name]))
     msg.header.stamp = odom.header.stamp
     msg.header.frame_id = odom.header.frame_id or "odom"
     msg.attractive_force = _vector(out.attractive_force)

@@ -17,6 +17,7 @@ from twbr_common.geometry import rpy_from_quaternion
 from twbr_runner.response import settle_time, step_response
 
 PITCH_BAND = 0.005  # rad: "theta returns within +-0.005 rad of its equilibrium"
+TRANSIENT_S = 2.0  # s after the first non-zero reference: the paper's "first transient" (1.5-1.75 s)
 CONTROLLER_FIELDS = (
     "velocity_ref", "velocity", "yaw_rate_ref", "yaw_rate", "pitch_ref", "pitch", "pitch_rate",
     "common_torque", "differential_torque", "left_torque", "right_torque", "dt",
@@ -42,6 +43,11 @@ class RunSeries:
     wheel_effort: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # delivered [N·m]
     sim_status: list[Any] = field(default_factory=list)
     world_status: list[Any] = field(default_factory=list)
+    target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    # (stamp, [(id, x, y, radius), ...]) per obstacles message
+    obstacles: list[tuple[float, list[tuple[int, float, float, float]]]] = field(default_factory=list)
+    planner: list[Any] = field(default_factory=list)  # PlannerState messages in stamp order
     counts: dict[str, int] = field(default_factory=dict)
     messages: dict[str, list[tuple[int, Any]]] = field(default_factory=dict)
 
@@ -70,6 +76,12 @@ def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSe
     s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
     s.sim_status = [m for _, m in sorted(messages.get("/sim_status", []), key=lambda x: stamp_of(x[1]))]
     s.world_status = [m for _, m in sorted(messages.get("/world_status", []), key=lambda x: stamp_of(x[1]))]
+    target = _dedupe_by_stamp(messages.get("/target", []))
+    s.target_t = np.array([stamp_of(m) for m in target])
+    s.target_xy = np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for m in target]).reshape(-1, 2)
+    s.obstacles = [(stamp_of(m), [(o.id, o.position.x, o.position.y, o.radius) for o in m.obstacles])
+                   for m in _dedupe_by_stamp(messages.get("/obstacles", []))]
+    s.planner = _dedupe_by_stamp(messages.get("/planner_state", []))
     return s
 
 
@@ -81,7 +93,37 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float) -> dict[str, Any]:
+def navigation_metrics(s: RunSeries) -> dict[str, Any]:
+    """Outcome of a run with a world: reached, when, collisions, clearance, pitch per planner mode."""
+    status = s.world_status
+    reached = [m for m in status if m.target_reached]
+    clearances = [m.clearance for m in status if math.isfinite(m.clearance)]
+    out: dict[str, Any] = {
+        "reached": bool(reached),
+        "time_to_reach_s": stamp_of(reached[0]) if reached else None,
+        "collisions": int(status[-1].collision_count) if status else None,
+        "min_clearance_m": min(clearances) if clearances else None,  # sampled at the world rate
+        "final_target_distance_m": float(status[-1].target_distance) if status else None,
+    }
+    if s.planner:
+        t = np.array([stamp_of(m) for m in s.planner])
+        modes = np.array([m.mode for m in s.planner])
+        # The mode in force at each odom sample: the last planner decision at or before it.
+        idx = np.searchsorted(t, s.odom_t, side="right") - 1
+        per_mode = {}
+        for mode in sorted(set(modes)):
+            mask = (idx >= 0) & (modes[np.maximum(idx, 0)] == mode)
+            if mask.any():
+                per_mode[mode] = {"pitch_min_rad": float(s.pitch[mask].min()),
+                                  "pitch_max_rad": float(s.pitch[mask].max()),
+                                  "time_s": float(mask.sum() * np.median(np.diff(s.odom_t)))}
+        out["pitch_by_mode"] = per_mode
+        out["stuck_time_s"] = per_mode.get("stuck", {}).get("time_s", 0.0)
+    return out
+
+
+def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
+                    step_responses: bool = True) -> dict[str, Any]:
     if len(s.control_t) == 0 or len(s.odom_t) == 0:
         raise ValueError("the recording has no controller_state or no odom: nothing to measure")
     c = s.control
@@ -118,8 +160,18 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float) 
         "control_samples": len(s.control_t),
         "messages": s.counts,
     }
-    for name, signal, ref in (("velocity_step", "velocity", "velocity_ref"), ("yaw_rate_step", "yaw_rate",
-                                                                               "yaw_rate_ref")):
-        response = step_response(s.control_t, c[signal], c[ref])
-        metrics[name] = response.as_dict() if response is not None else None
+    # After the first transient: from TRANSIENT_S after the first non-zero reference to the end.
+    moving = np.flatnonzero((np.abs(c["velocity_ref"]) > 1e-9) | (np.abs(c["yaw_rate_ref"]) > 1e-9))
+    start = (s.control_t[moving[0]] if len(moving) else 0.0) + TRANSIENT_S
+    late = s.odom_t >= start
+    metrics["transient_s"] = TRANSIENT_S
+    metrics["pitch_after_transient_min_rad"] = float(s.pitch[late].min()) if late.any() else None
+    metrics["pitch_after_transient_max_rad"] = float(s.pitch[late].max()) if late.any() else None
+    if step_responses:
+        for name, signal, ref in (("velocity_step", "velocity", "velocity_ref"),
+                                  ("yaw_rate_step", "yaw_rate", "yaw_rate_ref")):
+            response = step_response(s.control_t, c[signal], c[ref])
+            metrics[name] = response.as_dict() if response is not None else None
+    if s.world_status:
+        metrics.update(navigation_metrics(s))
     return metrics

@@ -30,7 +30,7 @@ from typing import Any
 from twbr_common.params import ConfigError
 from twbr_common.processes import NodeProcess, loopback_env, start_node
 from twbr_runner.bag_reader import bag_info, read_messages
-from twbr_runner.figures import response_figures
+from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import compute_metrics, series_from_messages
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import config_dir, find_scenario
@@ -64,6 +64,7 @@ class NodeSpec:
     ros_args: list[str]
     args: list[str] = field(default_factory=list)
     recorded: tuple[str, ...] = ()  # topics it publishes that the recorder must have matched before the sim starts
+    niceness: int = 0
 
 
 @dataclass
@@ -88,7 +89,9 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
-        NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics]),
+        # The recorder is not in the control loop: on 2 cores it must not delay the planner's cmd_vel.
+        NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics],
+                 niceness=10),
         NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml"),
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
@@ -198,7 +201,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                 for topic in (t for s in nodes for t in s.recorded):
                     _wait_for_line(procs["recorder"], f"publisher(s) on {topic}", 30.0)
             procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, env, log_dir, spec.label,
-                                           spec.args)
+                                           spec.args, spec.niceness)
             if spec.label == "recorder":
                 _wait_for_line(procs["recorder"], "recording to", 20.0)
         sim = procs["sim"]
@@ -241,19 +244,20 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             progress.close()
     if code != 0:
         _say(opts, f"run_scenario: {reason}")
-    metrics = analyse(run_dir, bag_dir, scenario.name, seed, sim_wall, time.monotonic() - wall_start, reason, opts)
+    metrics = analyse(run_dir, bag_dir, scenario, seed, sim_wall, time.monotonic() - wall_start, reason, opts)
     if metrics is None and code == 0:
         code = EXIT_FAILED
     return code, run_dir
 
 
-def analyse(run_dir: Path, bag_dir: Path, name: str, seed: int, wall: float | None, total_wall: float,
+def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: float | None, total_wall: float,
             reason: str, opts: RunOptions) -> dict[str, Any] | None:
     """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
     try:
         info = bag_info(bag_dir)
         series = series_from_messages(read_messages(bag_dir))
-        metrics = compute_metrics(series, name, seed, wall if wall is not None else total_wall)
+        metrics = compute_metrics(series, scenario.name, seed, wall if wall is not None else total_wall,
+                                  step_responses=scenario.target is None)
     except Exception as e:  # whatever the recording lacks: report it, keep the bag
         _say(opts, f"run_scenario: cannot measure the recording in {bag_dir}: {e}")
         return None
@@ -262,7 +266,11 @@ def analyse(run_dir: Path, bag_dir: Path, name: str, seed: int, wall: float | No
     metrics["bag"] = {"path": str(bag_dir), "storage": info["storage_identifier"],
                       "message_count": info["message_count"]}
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    figures = response_figures(series, run_dir, name) if opts.figures else []
+    figures = []
+    if opts.figures:
+        figures = response_figures(series, run_dir, scenario.name)
+        if series.planner:
+            figures += potential_figures(series, run_dir, scenario.name)
     _say(opts, summary(metrics, run_dir, figures))
     return metrics
 
@@ -287,6 +295,13 @@ def summary(m: dict[str, Any], run_dir: Path, figures: list[Path]) -> str:
                 f" {f(r['settle_time_s'], '.3f')} s, overshoot {r['overshoot_pct']:.2f} %, steady-state error"
                 f" {r['steady_state_error_pct']:.2f} %, wrong-way dip {r['undershoot']:.4f} {unit}"
             )
+    if "reached" in m:
+        lines.append(
+            f"  reached {m['reached']} at {f(m['time_to_reach_s'], '.2f')} s, collisions {m['collisions']},"
+            f" min clearance {f(m['min_clearance_m'], '.3f')} m, pitch after the first {m['transient_s']:g} s"
+            f" [{f(m['pitch_after_transient_min_rad'])}, {f(m['pitch_after_transient_max_rad'])}] rad,"
+            f" stuck {f(m.get('stuck_time_s'), '.2f')} s"
+        )
     lines.append(f"  wrote {run_dir / 'metrics.json'}" + (f" and {len(figures)} figures" if figures else "")
                  + f"; bag in {run_dir / 'bag'}")
     return "\n".join(lines)
