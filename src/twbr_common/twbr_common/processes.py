@@ -74,6 +74,12 @@ class NodeProcess:
         self._flush()
         return self.stdout_path.read_text() + self.stderr_path.read_text()
 
+    def interrupt(self) -> None:
+        """SIGINT to the process group, without waiting (stop() then waits)."""
+        if self.proc.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.proc.pid, signal.SIGINT)
+
     def stop(self, timeout: float = 5.0) -> int | None:
         if self.proc.poll() is None:
             try:

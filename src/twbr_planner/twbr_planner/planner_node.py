@@ -44,6 +44,7 @@ class PlannerNode(Node):
         self._marker_due = Decimator(self.cfg["marker_rate"])
         self._target: tuple[float, Target] | None = None
         self._obstacles: tuple[float, ObstacleArray] | None = None
+        self._last_plan: tuple[float, PlannerOutput] | None = None
         self.stamped = self.cfg["enable_stamped_cmd_vel"]
         self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
         self.pub_state = self.create_publisher(PlannerState, "planner_state", SENSOR_PUB_QOS)
@@ -89,7 +90,10 @@ class PlannerNode(Node):
         if verdict is not Verdict.ACCEPTED:
             self.get_logger().warn(f"dropped odom: {verdict.value}", throttle_duration_sec=1.0)
             return
-        if self._due.due(stamp):
+        if self._last_plan is not None and stamp == self._last_plan[0]:
+            # The same state offered again (a lockstep simulator waiting at t = 0): answer it again.
+            self._publish(msg, self._last_plan[1], p.x, p.y)
+        elif self._due.due(stamp):
             self._plan(msg, stamp, p.x, p.y, yaw, speed)
 
     # --- planning -----------------------------------------------------------------------------
@@ -104,6 +108,7 @@ class PlannerNode(Node):
                                    throttle_duration_sec=2.0)
         else:
             out = self.core.step(stamp, x, y, yaw, speed, self._target[1], self._obstacles_at(stamp))
+        self._last_plan = (stamp, out)
         self._publish(odom, out, x, y)
 
     def _obstacles_at(self, stamp: float) -> Obstacles:

@@ -25,6 +25,11 @@ CONTROLLER_FIELDS = (
 )
 
 
+# What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
+MEASURED_TOPICS = ("/controller_state", "/odom", "/joint_states", "/sim_status", "/world_status", "/target",
+                   "/obstacles", "/planner_state")
+
+
 def stamp_of(msg: Any) -> float:
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 

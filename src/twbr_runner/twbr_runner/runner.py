@@ -27,11 +27,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from twbr_common.params import ConfigError
 from twbr_common.processes import NodeProcess, loopback_env, start_node
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
-from twbr_runner.metrics import compute_metrics, series_from_messages
+from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import config_dir, find_scenario
 
@@ -102,10 +104,16 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
                               [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
                               recorded=("/cmd_vel",)))
+    # The simulator holds t = 0 until every odom subscriber of the graph (recorder, controller, planner)
+    # is matched, and, with a planner, waits for its output at every planning instant as well.
+    planner = scenario.target is not None
+    planner_rate = yaml.safe_load((config / "planner.yaml").read_text())["planner_node"]["ros__parameters"].get(
+        "rate", 20.0) if planner else 0.0
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
         *_params(config, "robot.yaml", "sim.yaml"),
         "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
-        "-p", "mode:=lockstep", "-p", "wait_for_subscribers:=2",  # the recorder and the controller
+        "-p", "mode:=lockstep", "-p", f"wait_for_subscribers:={3 if planner else 2}",
+        "-p", f"lockstep_planner_rate:={float(planner_rate)}",
     ]))
     return nodes
 
@@ -219,9 +227,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                 _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s ({pct:5.1f} %)"
                            f"{'  FALLEN' if progress.fallen else ''}", end="\r" if tty else "\n")
             if scenario.end_on_target and progress.target_reached:
-                reason = "target reached"
-                sim.stop()
-                break
+                reason = "target reached"  # the simulator ends the run itself, flushing its last messages
             if now - wall_start > wall_timeout:
                 raise TimeoutError(f"wall-clock limit of {wall_timeout:g} s reached at sim time"
                                    f" {progress.sim_time:.2f} s")
@@ -238,8 +244,13 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         for s, handler in previous.items():
             signal.signal(s, handler)
         # Stop the sources first, the recorder last, so it sees everything that was published.
-        for label in [lbl for lbl in procs if lbl != "recorder"] + (["recorder"] if "recorder" in procs else []):
-            procs[label].stop()
+        sources = [p for label, p in procs.items() if label != "recorder"]
+        for proc in sources:
+            proc.interrupt()  # all at once: each takes a moment to shut down
+        for proc in sources:
+            proc.stop()
+        if "recorder" in procs:
+            procs["recorder"].stop()
         if progress is not None:
             progress.close()
     if code != 0:
@@ -255,7 +266,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
     try:
         info = bag_info(bag_dir)
-        series = series_from_messages(read_messages(bag_dir))
+        series = series_from_messages(read_messages(bag_dir, MEASURED_TOPICS))
         metrics = compute_metrics(series, scenario.name, seed, wall if wall is not None else total_wall,
                                   step_responses=scenario.target is None)
     except Exception as e:  # whatever the recording lacks: report it, keep the bag

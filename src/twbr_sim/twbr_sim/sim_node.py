@@ -34,12 +34,12 @@ from twbr_common.ros_io import (
 )
 from twbr_common.ros_params import declare, run_node
 from twbr_common.timing import Decimator
-from twbr_msgs.msg import ObstacleArray, SimStatus, WheelTorques, WorldStatus
+from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
-from twbr_sim.simulator import SIM_SPECS, Simulator
+from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
@@ -80,6 +80,19 @@ class SimNode(Node):
             self.pub_world_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
             self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
         self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
+        # Lockstep with the planner too: it is not in the torque loop, and a starved planner process would
+        # otherwise fall behind a simulator running faster than real time (its cmd_vel then goes stale).
+        self._last_assessment = None
+        self._planner_every = 0
+        self._planner_ns: int | None = None
+        if self.lockstep and cfg["lockstep_planner_rate"] > 0.0:
+            self._planner_every = steps_per_publish(cfg["physics_rate"], cfg["lockstep_planner_rate"])
+            if self._planner_every % self.sim.steps_per_publish:
+                raise ConfigError(
+                    f"invalid parameter 'lockstep_planner_rate' = {cfg['lockstep_planner_rate']:g}: must divide"
+                    f" publish_rate = {cfg['publish_rate']:g} Hz into a whole number of states"
+                )
+            self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
         self._tf_due = Decimator(cfg["tf_rate"])
         self._world_due = Decimator(cfg["world_rate"])
         self._marker_due = Decimator(cfg["marker_rate"])
@@ -109,6 +122,17 @@ class SimNode(Node):
                 # State published -> its command received: the whole control loop over DDS.
                 self._latencies.append(time.perf_counter() - self._published_at)
             self._matched = True
+
+    def _on_planner_state(self, msg: PlannerState) -> None:
+        self._planner_ns = stamp_ns(msg.header.stamp)
+
+    def _answered(self) -> bool:
+        """The command for the pending state arrived, and the planner's output too when it is due."""
+        if not self._matched:
+            return False
+        if self._planner_every and self.sim.step_count % self._planner_every == 0:
+            return self._planner_ns == self._pending_ns
+        return True
 
     # --- outputs ------------------------------------------------------------------------------
     def publish_state(self) -> None:
@@ -203,6 +227,7 @@ class SimNode(Node):
             self.pub_target.publish(target_message(target, stamp, self._frame_odom))
         self.pub_obstacles.publish(obstacles_message(world.obstacles(), stamp, self._frame_odom))
         assessment = self.sim.assess()
+        self._last_assessment = assessment
         self.pub_world_status.publish(
             world_status_message(assessment, world.collision_count, stamp, self._frame_odom)
         )
@@ -210,7 +235,14 @@ class SimNode(Node):
     # --- stepping -----------------------------------------------------------------------------
     def _finished(self) -> bool:
         duration = self.cfg["duration"]
-        return duration > 0.0 and self.sim.time >= duration - 1e-12
+        return (duration > 0.0 and self.sim.time >= duration - 1e-12) or self._target_reached_end
+
+    @property
+    def _target_reached_end(self) -> bool:
+        """The scenario ends when its target is reached (end_on_target), judged at the world rate."""
+        scenario = self.sim.scenario
+        return bool(scenario and scenario.end_on_target and self._last_assessment is not None
+                    and self._last_assessment.target_reached)
 
     def _wait_for_subscribers(self) -> None:
         wanted = self.cfg["wait_for_subscribers"]
@@ -266,13 +298,13 @@ class SimNode(Node):
         self.publish_state()
         while self.context.ok() and not self._finished():
             deadline = time.monotonic() + timeout
-            while not self._matched and self.context.ok():
+            while not self._answered() and self.context.ok():
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0:
                     break
                 executor.spin_once(timeout_sec=remaining)
-            if not self._matched:
-                if waiting_first and self.sim.guard.last_stamp is None:
+            if not self._answered():
+                if waiting_first and self.sim.step_count == 0:
                     self.publish_state()  # nobody has answered yet: offer the initial state again
                     continue
                 self.sim.lockstep_timeouts += 1

@@ -32,6 +32,9 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
               " it (counted as a timeout)", "s", 0.001, 60.0),
     ParamSpec("wait_for_first_command", True, "lockstep: hold sim time at 0 until the first command arrives,"
               " so a controller started later finds the robot upright"),
+    ParamSpec("lockstep_planner_rate", 0.0, "lockstep: also hold every 1/rate s of sim time until planner_state"
+              " stamped with that state arrives (the runner sets it to the planner's rate; 0: do not wait)", "Hz",
+              0.0, 1000.0),
     ParamSpec("wait_for_subscribers", 0, "publish nothing until odom has this many matched subscriptions (a"
               " runner sets it so that its recorder and controller both see t = 0)", "", 0, 1000),
     ParamSpec("command_timeout", 0.1, "a wheel_torque_cmd older than this (sim time) is stale: zero torque", "s",
