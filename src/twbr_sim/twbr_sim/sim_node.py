@@ -94,6 +94,7 @@ class SimNode(Node):
                 )
             self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
         self._tf_due = Decimator(cfg["tf_rate"])
+        self._clock_due = Decimator(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"])
         self._world_due = Decimator(cfg["world_rate"])
         self._marker_due = Decimator(cfg["marker_rate"])
         self.get_logger().info(
@@ -140,7 +141,8 @@ class SimNode(Node):
         now_ns = sim.step_count * self._step_ns
         stamp = to_stamp(now_ns)
         self._published_at = time.perf_counter()
-        self.pub_clock.publish(Clock(clock=stamp))
+        if self._clock_due.due(sim.time):
+            self.pub_clock.publish(Clock(clock=stamp))
         s = sim.state
         q = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
 

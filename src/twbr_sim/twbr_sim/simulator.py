@@ -46,6 +46,9 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("host_world", True, "publish the scenario's target and obstacles (false when world_node runs)"),
     ParamSpec("seed", -1, "seed of the target's turns and the IMU noise; -1 takes the scenario's", "", -1,
               2**31 - 1),
+    ParamSpec("clock_rate", 0.0, "rate of /clock; 0: with every state (publish_rate). Every node on sim time"
+              " handles each /clock message: a lower rate frees CPU, at the cost of a coarser node clock", "Hz",
+              0.0, 10000.0),
     ParamSpec("world_rate", 20.0, "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
     ParamSpec("marker_rate", 5.0, "rate of the RViz world markers", "Hz", 0.1, 100.0),
     ParamSpec("tf_rate", 50.0, "rate of the odom -> base_link transform", "Hz", 0.1, 1000.0),
