@@ -1,6 +1,6 @@
 # twbr: `make demo` runs the main job, `make test` runs every test (both set up everything first).
 SHELL := /bin/bash
-SCENARIO ?= step
+SCENARIO ?= dynamic_obstacles
 RUN := tools/run.sh
 
 .PHONY: all setup test unit e2e demo bench lint clean

@@ -341,7 +341,8 @@ def _wait_for_line(proc: NodeProcess, needle: str, timeout: float) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="run_scenario", description=__doc__.split("\n")[0])
-    ap.add_argument("scenario", nargs="?", default="step", help="scenario name or file (default: step)")
+    ap.add_argument("scenario", nargs="?", default="dynamic_obstacles",
+                    help="scenario name or file (default: dynamic_obstacles)")
     ap.add_argument("--out", type=Path, default=Path("runs"), help="where run directories go (default: runs)")
     ap.add_argument("--seed", type=int, help="override the scenario's seed")
     ap.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: the environment's)")
