@@ -1,0 +1,45 @@
+"""Property tests of the planner core: finite in, finite out; 0 <= v <= v_max; |omega| limited; mirror symmetry."""
+
+import math
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from twbr_common.params import defaults
+from twbr_planner.apf import ApfPlanner, Obstacles, Target
+from twbr_planner.planner_params import APF_SPECS
+
+G = defaults(APF_SPECS)
+coord = st.floats(-50.0, 50.0)
+obstacle = st.tuples(coord, coord, st.floats(0.05, 5.0))
+situation = st.tuples(coord, coord, st.floats(-math.pi, math.pi), st.floats(-2.0, 2.0),  # robot x, y, yaw, v
+                      coord, coord, st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),  # target x, y, vx, vy
+                      st.lists(obstacle, max_size=5))
+
+
+def plan(planner, x, y, yaw, v, tx, ty, tvx, tvy, obstacles, steps=5):
+    obs = Obstacles.of([(k, ox, oy, r) for k, (ox, oy, r) in enumerate(obstacles)])
+    return [planner.step(0.05 * k, x, y, yaw, v, Target(tx, ty, tvx, tvy), obs) for k in range(steps)]
+
+
+@settings(max_examples=300, deadline=None)
+@given(situation)
+def test_commands_are_finite_and_inside_their_limits(s):
+    for out in plan(ApfPlanner(G), *s):
+        assert math.isfinite(out.velocity_cmd) and math.isfinite(out.yaw_rate_cmd)
+        assert 0.0 <= out.velocity_cmd <= G["v_max"]
+        assert abs(out.yaw_rate_cmd) <= G["max_yaw_rate"]
+        assert all(math.isfinite(f) for f in (*out.attractive_force, *out.repulsive_force))
+
+
+@settings(max_examples=200, deadline=None)
+@given(situation)
+def test_the_mirrored_world_gives_the_mirrored_command(s):
+    x, y, yaw, v, tx, ty, tvx, tvy, obstacles = s
+    a = plan(ApfPlanner(G), x, y, yaw, v, tx, ty, tvx, tvy, obstacles)
+    b = plan(ApfPlanner(G), x, -y, -yaw, v, tx, -ty, tvx, -tvy, [(ox, -oy, r) for ox, oy, r in obstacles])
+    for oa, ob in zip(a, b, strict=True):
+        assert math.isclose(oa.velocity_cmd, ob.velocity_cmd, rel_tol=1e-9, abs_tol=1e-9)
+        if abs(abs(oa.heading_error) - math.pi) > 1e-6:  # exactly behind: either way round is right
+            assert math.isclose(oa.yaw_rate_cmd, -ob.yaw_rate_cmd, rel_tol=1e-9, abs_tol=1e-9)
+        assert oa.mode is ob.mode
