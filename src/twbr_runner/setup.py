@@ -20,6 +20,7 @@ setup(
         "console_scripts": [
             "recorder = twbr_runner.recorder:main",
             "run_scenario = twbr_runner.runner:main",
+            "check_driver = twbr_runner.check_driver:main",
         ],
     },
 )

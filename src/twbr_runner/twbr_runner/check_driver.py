@@ -1,0 +1,173 @@
+"""check_driver: checks a running robot driver against the interface contract (docs/interfaces.md).
+
+    ros2 run twbr_runner check_driver [--rate 200] [--tolerance 0.2] [--torque 1.0]
+
+Run it beside the driver alone (no controller): it answers every odom with a wheel_torque_cmd stamped
+with that state (zero torque, which also steps a lockstep simulator), then applies a short forward torque
+pulse. On a real robot, put it on a stand first: the pulse spins the wheels and nothing balances it. It
+prints one PASS/FAIL line per check and exits 1 if any check fails (2 when nothing answers at all).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import defaultdict
+from statistics import mean
+
+import rclpy
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.qos import QoSCompatibility, QoSProfile, qos_check_compatible
+from rclpy.utilities import remove_ros_args
+from sensor_msgs.msg import Imu, JointState
+
+from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, stamp_seconds
+from twbr_msgs.msg import WheelTorques
+from twbr_runner.conformance import (
+    COMMAND_TOPIC,
+    SENSOR_TOPICS,
+    Check,
+    check_frames,
+    check_pitch_sign,
+    check_qos,
+    check_rate,
+    check_response,
+    check_stamps,
+    check_type,
+)
+
+
+class DriverChecker(Node):
+    def __init__(self) -> None:
+        super().__init__("check_driver")
+        self.stamps: dict[str, list[float]] = defaultdict(list)
+        self.odom_frames: set[tuple[str, str]] = set()
+        self.imu_frames: set[str] = set()
+        self.joint_names: set[tuple[str, ...]] = set()
+        self.last_speed = 0.0
+        self.last_pitch = 0.0
+        self.efforts: list[float] = []
+        self.torque = 0.0
+        self.pub = self.create_publisher(WheelTorques, COMMAND_TOPIC[0], COMMAND_QOS)
+
+    def graph_checks(self) -> list[Check]:
+        checks = []
+        names = dict(self.get_topic_names_and_types())
+        for topic, expected in SENSOR_TOPICS.items():
+            full = self.resolve_topic_name(topic)
+            publishers = self.get_publishers_info_by_topic(full)
+            checks.append(check_type(topic, expected, sorted(set(names.get(full, []))) if publishers else [],
+                                     "publisher"))
+            checks.append(check_qos(topic, [_compatible(p.qos_profile, SENSOR_SUB_QOS) for p in publishers]))
+        topic, expected = COMMAND_TOPIC
+        subscribers = self.get_subscriptions_info_by_topic(self.resolve_topic_name(topic))
+        checks.append(check_type(topic, expected, sorted({s.topic_type for s in subscribers}), "subscriber"))
+        # Our publisher's profile as the graph reports it (defaults spelled out the same way as the driver's).
+        ours = [p.qos_profile for p in self.get_publishers_info_by_topic(self.resolve_topic_name(topic))
+                if p.node_name == self.get_name()]
+        mine = ours[0] if ours else COMMAND_QOS
+        checks.append(check_qos(topic, [_compatible(mine, s.qos_profile) for s in subscribers]))
+        return checks
+
+    def listen(self) -> None:
+        self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
+        self.create_subscription(Imu, "imu", self._on_imu, SENSOR_SUB_QOS)
+        self.create_subscription(JointState, "joint_states", self._on_joints, SENSOR_SUB_QOS)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self.stamps["odom"].append(stamp_seconds(msg.header.stamp))
+        self.odom_frames.add((msg.header.frame_id, msg.child_frame_id))
+        self.last_speed = msg.twist.twist.linear.x
+        self.pub.publish(WheelTorques(header=msg.header, left=self.torque, right=self.torque))
+
+    def _on_imu(self, msg: Imu) -> None:
+        self.stamps["imu"].append(stamp_seconds(msg.header.stamp))
+        self.imu_frames.add(msg.header.frame_id)
+        o = msg.orientation
+        self.last_pitch = rpy_from_quaternion(o.x, o.y, o.z, o.w)[1]
+
+    def _on_joints(self, msg: JointState) -> None:
+        self.stamps["joint_states"].append(stamp_seconds(msg.header.stamp))
+        self.joint_names.add(tuple(msg.name))
+        if len(msg.effort) >= 2:
+            self.efforts.append(mean(msg.effort[:2]))
+
+    def driver_time(self) -> float:
+        return self.stamps["odom"][-1] if self.stamps["odom"] else 0.0
+
+
+def _compatible(publisher: QoSProfile, subscription: QoSProfile) -> tuple[bool, str]:
+    verdict, reason = qos_check_compatible(publisher, subscription)
+    return verdict != QoSCompatibility.ERROR, reason
+
+
+def spin_until(node: Node, condition, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        rclpy.spin_once(node, timeout_sec=0.02)
+    return condition()
+
+
+def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
+    # The driver's endpoints, as the graph shows them.
+    spin_until(node, lambda: all(node.count_publishers(t) for t in SENSOR_TOPICS)
+               and node.count_subscribers(COMMAND_TOPIC[0]), args.timeout)
+    time.sleep(0.2)
+    checks = node.graph_checks()
+    # Passive: zero torque answering each state, for `window` seconds of the driver's time.
+    node.listen()
+    if not spin_until(node, lambda: len(node.stamps["odom"]) > 2, args.timeout):
+        return [*checks, Check("odom received", False, f"nothing within {args.timeout:g} s")]
+    start = node.driver_time()
+    spin_until(node, lambda: node.driver_time() - start >= args.window, args.timeout + 5 * args.window)
+    for topic in SENSOR_TOPICS:
+        checks.append(check_stamps(topic, node.stamps[topic]))
+        checks.append(check_rate(topic, node.stamps[topic], args.rate, args.tolerance))
+    checks.append(check_frames(node.odom_frames, node.imu_frames, node.joint_names))
+    # Active: a short forward torque pulse, then zero torque again.
+    effort_before = mean(node.efforts[-20:]) if node.efforts else 0.0
+    v0, p0 = node.last_speed, node.last_pitch
+    node.efforts.clear()
+    node.torque = args.torque
+    t0 = node.driver_time()
+    spin_until(node, lambda: node.driver_time() - t0 >= args.pulse, args.timeout + 5 * args.pulse)
+    v1, p1 = node.last_speed, node.last_pitch
+    effort_during = mean(node.efforts[len(node.efforts) // 2:]) if node.efforts else 0.0
+    node.torque = 0.0
+    spin_until(node, lambda: False, 0.2)
+    checks.append(check_pitch_sign(v0, v1, p0, p1, args.torque))
+    checks.append(check_response(effort_before, effort_during, args.torque))
+    return checks
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv if argv is None else argv
+    ap = argparse.ArgumentParser(prog="check_driver", description=__doc__.split("\n")[0])
+    ap.add_argument("--rate", type=float, default=200.0, help="expected rate of odom, imu, joint_states [Hz]")
+    ap.add_argument("--tolerance", type=float, default=0.2, help="allowed relative rate error (default 0.2)")
+    ap.add_argument("--window", type=float, default=1.0, help="driver seconds of passive listening")
+    ap.add_argument("--torque", type=float, default=1.0, help="forward torque pulse on both wheels [N·m]")
+    ap.add_argument("--pulse", type=float, default=0.1, help="length of the torque pulse, driver seconds")
+    ap.add_argument("--timeout", type=float, default=15.0, help="wall seconds to wait for the driver")
+    args = ap.parse_args(remove_ros_args(argv)[1:])
+    rclpy.init(args=argv)
+    node = DriverChecker()
+    try:
+        checks = run_checks(node, args)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    for check in checks:
+        print(check.line(), flush=True)
+    failed = [c for c in checks if not c.passed]
+    print(f"{len(checks) - len(failed)} of {len(checks)} checks passed", flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,111 @@
+"""The checks of a robot driver against docs/interfaces.md, on recorded samples (plain Python).
+
+check_driver (the node) collects what the driver publishes while it answers each state with a torque
+command, then these functions judge it. Each returns a Check: a name, pass/fail and one line of detail.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+ODOM_FRAME = "odom"
+BASE_FRAME = "base_link"
+WHEEL_JOINTS = ("left_wheel_joint", "right_wheel_joint")
+SENSOR_TOPICS = {
+    "odom": "nav_msgs/msg/Odometry",
+    "imu": "sensor_msgs/msg/Imu",
+    "joint_states": "sensor_msgs/msg/JointState",
+}
+COMMAND_TOPIC = ("wheel_torque_cmd", "twbr_msgs/msg/WheelTorques")
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    passed: bool
+    detail: str
+
+    def line(self) -> str:
+        return f"{'PASS' if self.passed else 'FAIL'}  {self.name}: {self.detail}"
+
+
+def check_type(topic: str, expected: str, offered: Sequence[str], role: str) -> Check:
+    name = f"{topic} type"
+    if not offered:
+        return Check(name, False, f"no {role} of {topic}")
+    if list(offered) != [expected]:
+        return Check(name, False, f"{role} offers {', '.join(offered)}; the contract says {expected}")
+    return Check(name, True, expected)
+
+
+def check_stamps(topic: str, stamps: Sequence[float]) -> Check:
+    """Every stamp set (zero stamps are allowed only before the first non-zero one: a simulator at t = 0,
+    maybe offering its first state again) and never going back."""
+    name = f"{topic} stamps"
+    if len(stamps) < 2:
+        return Check(name, False, f"{len(stamps)} message(s) received")
+    first_set = next((k for k, t in enumerate(stamps) if t != 0.0), len(stamps))
+    unstamped = sum(1 for t in stamps[first_set:] if t == 0.0) + (len(stamps) if first_set == len(stamps) else 0)
+    if unstamped:
+        return Check(name, False, f"{unstamped} of {len(stamps)} messages have no stamp")
+    back = sum(1 for a, b in itertools.pairwise(stamps) if b < a)
+    if back:
+        return Check(name, False, f"{back} stamps go back in time")
+    if stamps[-1] <= stamps[0]:
+        return Check(name, False, "stamps never advance")
+    return Check(name, True, f"{len(stamps)} messages, stamps set and monotonic")
+
+
+def check_rate(topic: str, stamps: Sequence[float], expected: float, tolerance: float) -> Check:
+    """The publication rate in the driver's own time (its stamps: sim time or wall time alike)."""
+    name = f"{topic} rate"
+    distinct = sorted(set(stamps))
+    if len(distinct) < 3:
+        return Check(name, False, "too few distinct stamps to measure a rate")
+    rate = (len(distinct) - 1) / (distinct[-1] - distinct[0])
+    ok = abs(rate - expected) <= tolerance * expected
+    return Check(name, ok, f"{rate:.1f} Hz (expected {expected:g} Hz ± {tolerance:.0%})")
+
+
+def check_frames(odom_frames: set[tuple[str, str]], imu_frames: set[str], joint_names: set[tuple[str, ...]]) -> Check:
+    problems = []
+    if odom_frames != {(ODOM_FRAME, BASE_FRAME)}:
+        problems.append(f"odom frames {sorted(odom_frames)} (expected {ODOM_FRAME} -> {BASE_FRAME})")
+    if imu_frames != {BASE_FRAME}:
+        problems.append(f"imu frame {sorted(imu_frames)} (expected {BASE_FRAME})")
+    if any(not set(WHEEL_JOINTS) <= set(names) for names in joint_names) or not joint_names:
+        problems.append(f"joint names {sorted(joint_names)} (expected {', '.join(WHEEL_JOINTS)})")
+    return Check("frames", not problems, "; ".join(problems) or f"{ODOM_FRAME} -> {BASE_FRAME}, imu in"
+                 f" {BASE_FRAME}, {', '.join(WHEEL_JOINTS)}")
+
+
+def check_qos(topic: str, compatible: Sequence[tuple[bool, str]]) -> Check:
+    name = f"{topic} QoS"
+    if not compatible:
+        return Check(name, False, "no endpoint to match")
+    bad = [reason for ok, reason in compatible if not ok]
+    if bad:
+        return Check(name, False, "; ".join(bad))
+    return Check(name, True, f"{len(compatible)} endpoint(s) match our side")
+
+
+def check_pitch_sign(v_before: float, v_after: float, pitch_before: float, pitch_after: float,
+                     torque: float) -> Check:
+    """A forward wheel torque speeds the wheels up and, by reaction, leans the body back: the odometry's
+    speed rises while the IMU's pitch falls (pitch > 0 is leaning forward)."""
+    dv, dpitch = v_after - v_before, pitch_after - pitch_before
+    detail = f"+{torque:g} N·m on both wheels: speed {dv:+.4f} m/s, IMU pitch {dpitch:+.4f} rad"
+    if dv <= 0.0:
+        return Check("pitch sign vs odometry", False, detail + " (the odometry did not speed up)")
+    if dpitch >= 0.0:
+        return Check("pitch sign vs odometry", False, detail + " (pitch should fall: IMU sign or axis wrong)")
+    return Check("pitch sign vs odometry", True, detail)
+
+
+def check_response(effort_before: float, effort_during: float, torque: float) -> Check:
+    """The commanded torque shows up in joint_states' effort (the motors' torque)."""
+    ok = effort_during > 0.5 * torque and effort_during > effort_before
+    return Check("response to wheel_torque_cmd", ok,
+                 f"mean wheel effort {effort_before:+.3f} -> {effort_during:+.3f} N·m for +{torque:g} N·m commanded")
