@@ -1,0 +1,96 @@
+"""A robot driver that is not sim_node, for the conformance and drop-in tests: wall-clock stepping of the
+dynamics core at 200 Hz, stamped with the node's clock, with one deliberate fault if asked.
+
+    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import rclpy
+from geometry_msgs.msg import Vector3Stamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.utilities import remove_ros_args
+from sensor_msgs.msg import Imu, JointState
+
+from twbr_common.geometry import quaternion_from_rpy
+from twbr_common.params import defaults
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS
+from twbr_msgs.msg import WheelTorques
+from twbr_sim import dynamics as dyn
+from twbr_sim.robot_params import robot_params
+from twbr_sim.simulator import SIM_SPECS, Simulator
+
+FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped")
+
+
+class FakeDriver(Node):
+    def __init__(self, fault: str) -> None:
+        super().__init__("fake_driver")
+        self.fault = fault
+        cfg = defaults(SIM_SPECS)
+        self.sim = Simulator(robot_params(), cfg, None, 0)
+        self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
+        imu_type = Vector3Stamped if fault == "wrong_type" else Imu
+        self.pub_imu = None if fault == "missing_imu" else self.create_publisher(imu_type, "imu", SENSOR_PUB_QOS)
+        self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
+        self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
+        self.create_timer(1.0 / cfg["publish_rate"], self._tick)
+
+    def _on_command(self, msg: WheelTorques) -> None:
+        self.sim.offer_command(self.sim.time, msg.left, msg.right)
+
+    def _tick(self) -> None:
+        self.sim.advance(self.sim.steps_per_publish)
+        s = self.sim.state
+        stamp = self.get_clock().now().to_msg()
+        if self.fault == "unstamped":
+            stamp.sec, stamp.nanosec = 0, 0
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id, odom.child_frame_id = stamp, "odom", "base_link"
+        odom.pose.pose.position.x, odom.pose.pose.position.y = s[dyn.S_XC], s[dyn.S_YC]
+        o = odom.pose.pose.orientation
+        o.x, o.y, o.z, o.w = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = s[dyn.S_XD], s[dyn.S_PSID]
+        self.pub_odom.publish(odom)
+        pitch = -s[dyn.S_TH] if self.fault == "pitch_sign" else s[dyn.S_TH]
+        if self.fault == "wrong_type":
+            self.pub_imu.publish(Vector3Stamped(header=odom.header))
+        elif self.pub_imu is not None:
+            imu = Imu()
+            imu.header.stamp, imu.header.frame_id = stamp, "base_link"
+            q = imu.orientation
+            q.x, q.y, q.z, q.w = quaternion_from_rpy(0.0, pitch, s[dyn.S_PSI])
+            imu.angular_velocity.y = -s[dyn.S_THD] if self.fault == "pitch_sign" else s[dyn.S_THD]
+            imu.angular_velocity.z = s[dyn.S_PSID]
+            self.pub_imu.publish(imu)
+        joints = JointState()
+        joints.header.stamp = stamp
+        joints.name = ["left_wheel_joint", "right_wheel_joint"]
+        joints.position = [float(s[dyn.S_GL]), float(s[dyn.S_GR])]
+        joints.velocity = list(self.sim.wheel_rates())
+        joints.effort = list(self.sim.wheel_torques())
+        self.pub_joints.publish(joints)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--fault", choices=FAULTS, default="none")
+    args = ap.parse_args(remove_ros_args(sys.argv)[1:])
+    rclpy.init(args=sys.argv)
+    node = FakeDriver(args.fault)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,76 @@
+"""Drop-in drivers: check_driver against sim_node, against a driver that is not sim_node, and against
+deliberately broken ones; and world_node + planner + controller beside that other driver."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from twbr_common.processes import NodeProcess, node_executable
+from twbr_msgs.msg import WorldStatus
+
+pytestmark = pytest.mark.e2e
+FAKE_DRIVER = Path(__file__).with_name("fake_driver.py")
+
+
+def check_driver(env: dict[str, str], *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([str(node_executable("twbr_runner", "check_driver")), *args], env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def fake_driver(env: dict[str, str], tmp_path: Path, fault: str) -> NodeProcess:
+    return NodeProcess([sys.executable, str(FAKE_DRIVER), "--fault", fault], env, tmp_path, f"fake-{fault}")
+
+
+def test_sim_node_passes_every_check(launch, ros_env):
+    launch("twbr_sim", "sim_node", params=("robot.yaml", "sim.yaml"))
+    done = check_driver(ros_env)
+    assert done.returncode == 0, done.stdout + done.stderr
+    lines = [line for line in done.stdout.splitlines() if line.startswith(("PASS", "FAIL"))]
+    assert len(lines) == 17 and all(line.startswith("PASS") for line in lines)
+    assert "17 of 17 checks passed" in done.stdout
+
+
+BROKEN = [
+    ("wrong_type", "FAIL  imu type: publisher offers geometry_msgs/msg/Vector3Stamped"),
+    ("missing_imu", "FAIL  imu type: no publisher of imu"),
+    ("pitch_sign", "FAIL  pitch sign vs odometry"),
+    ("unstamped", "FAIL  odom stamps"),
+]
+
+
+@pytest.mark.parametrize(("fault", "expected"), BROKEN)
+def test_broken_drivers_fail_the_check_that_names_their_fault(ros_env, tmp_path, fault, expected):
+    driver = fake_driver(ros_env, tmp_path, fault)
+    try:
+        done = check_driver(ros_env, "--timeout", "8")
+    finally:
+        driver.stop()
+    assert done.returncode == 1, done.stdout + done.stderr + driver.output
+    assert expected in done.stdout
+
+
+def test_another_driver_passes_and_world_node_drives_it_to_a_target(launch, ros, ros_env, tmp_path):
+    driver = fake_driver(ros_env, tmp_path, "none")
+    try:
+        done = check_driver(ros_env)
+        assert done.returncode == 0, done.stdout + done.stderr + driver.output
+    finally:
+        driver.stop()  # the check's torque pulse tipped it over: nothing balanced it
+    driver = fake_driver(ros_env, tmp_path, "none")
+    try:
+        scenario = tmp_path / "ahead.yaml"
+        scenario.write_text("name: ahead\nduration: 60\ntarget: {position: [2.5, 0.0], capture_radius: 0.5}\n")
+        wall = ("-p", "use_sim_time:=false")
+        launch("twbr_control", "controller_node", *wall, params=("controller.yaml",))
+        launch("twbr_planner", "planner_node", *wall, params=("planner.yaml",))
+        world = launch("twbr_sim", "world_node", *wall, "-p", f"scenario:={scenario}", params=("world.yaml",))
+        status: list[WorldStatus] = []
+        ros.node.create_subscription(WorldStatus, "world_status", status.append, 10)
+        assert ros.spin_until(lambda: any(s.target_reached for s in status), 45.0), world.output + driver.output
+        assert not any(s.collision for s in status)
+    finally:
+        driver.stop()
