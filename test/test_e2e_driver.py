@@ -46,7 +46,7 @@ BROKEN = [
 def test_broken_drivers_fail_the_check_that_names_their_fault(ros_env, tmp_path, fault, expected):
     driver = fake_driver(ros_env, tmp_path, fault)
     try:
-        done = check_driver(ros_env, "--timeout", "8")
+        done = check_driver(ros_env, "--timeout", "4")
     finally:
         driver.stop()
     assert done.returncode == 1, done.stdout + done.stderr + driver.output

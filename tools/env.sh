@@ -43,5 +43,9 @@ export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 100) + 101 ))}"
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
 # UDP on loopback, not shared memory: see LOOPBACK_TRANSPORT in twbr_common/processes.py.
 export FASTDDS_BUILTIN_TRANSPORTS="${FASTDDS_BUILTIN_TRANSPORTS:-UDPv4}"
+# Announce participants every 0.5 s (config/fastdds.xml): the processes of a graph find each other at once.
+if [ -f "$TWBR_ROOT/config/fastdds.xml" ]; then
+  export FASTRTPS_DEFAULT_PROFILES_FILE="${FASTRTPS_DEFAULT_PROFILES_FILE:-$TWBR_ROOT/config/fastdds.xml}"
+fi
 # Parameter and scenario files come from the checkout (edit them in place, no rebuild needed).
 export TWBR_CONFIG_DIR="${TWBR_CONFIG_DIR:-$TWBR_ROOT/config}"

@@ -22,7 +22,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
-        ("share/" + package_name + "/config", relative("*.yaml")),
+        ("share/" + package_name + "/config", relative("*.yaml") + relative("*.xml")),
         ("share/" + package_name + "/config/scenarios", relative("scenarios/*.yaml")),
     ],
     install_requires=["setuptools"],

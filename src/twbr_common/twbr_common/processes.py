@@ -12,6 +12,8 @@ import signal
 import subprocess
 from pathlib import Path
 
+from twbr_common.paths import config_dir
+
 
 def node_executable(package: str, name: str) -> Path:
     """The file `ros2 run <package> <name>` would run: <prefix>/lib/<package>/<name>."""
@@ -29,6 +31,15 @@ def node_executable(package: str, name: str) -> Path:
 LOOPBACK_TRANSPORT = "UDPv4"
 
 
+def fast_discovery_profile() -> Path | None:
+    """config/fastdds.xml (announce every 0.5 s instead of 3 s: a graph's processes find each other at once)."""
+    try:
+        path = config_dir() / "fastdds.xml"
+    except LookupError:  # no checkout config and twbr_sim not installed
+        return None
+    return path if path.is_file() else None
+
+
 def loopback_env(domain_id: int, base: dict[str, str] | None = None) -> dict[str, str]:
     """An environment whose DDS traffic stays on this machine, on its own domain."""
     env = dict(os.environ if base is None else base)
@@ -36,6 +47,9 @@ def loopback_env(domain_id: int, base: dict[str, str] | None = None) -> dict[str
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env.pop("ROS_STATIC_PEERS", None)
     env.setdefault("FASTDDS_BUILTIN_TRANSPORTS", LOOPBACK_TRANSPORT)
+    profile = fast_discovery_profile()
+    if profile is not None:
+        env.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(profile))
     env["PYTHONUNBUFFERED"] = "1"
     env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
     return env

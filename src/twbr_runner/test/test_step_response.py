@@ -63,7 +63,7 @@ def test_untuned_lqr_start_is_worse_than_the_shipped_gains():
 def test_config_file_carries_the_shipped_gains():
     import yaml
 
-    from twbr_sim.scenario_files import config_dir
+    from twbr_common.paths import config_dir
 
     params = yaml.safe_load((config_dir() / "controller.yaml").read_text())["controller_node"]["ros__parameters"]
     for name in ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight",

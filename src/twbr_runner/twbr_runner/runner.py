@@ -30,12 +30,13 @@ from typing import Any
 import yaml
 
 from twbr_common.params import ConfigError
+from twbr_common.paths import config_dir
 from twbr_common.processes import NodeProcess, loopback_env, start_node
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
 from twbr_sim.scenario import Scenario, load_scenario
-from twbr_sim.scenario_files import config_dir, find_scenario
+from twbr_sim.scenario_files import find_scenario
 
 # Every topic of the contract, with its type: the recorder subscribes to these before any node starts.
 RECORDED_TOPICS = {
@@ -276,6 +277,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     metrics["run_wall_time_s"] = total_wall  # including start-up, discovery, shutdown and analysis start
     metrics["bag"] = {"path": str(bag_dir), "storage": info["storage_identifier"],
                       "message_count": info["message_count"]}
+    metrics["messages"] = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     figures = []
     if opts.figures:

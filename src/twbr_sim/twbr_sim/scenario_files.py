@@ -38,11 +38,3 @@ def find_scenario(value: str) -> Path:
     choices = ", ".join(known) or "(none installed)"
     raise ConfigError(f"invalid parameter 'scenario' = {value!r}: must be a scenario file or one of {choices}")
 
-
-def config_dir() -> Path:
-    """The parameter files' directory: $TWBR_CONFIG_DIR (a checkout's config/), else share/twbr_sim/config."""
-    if os.environ.get("TWBR_CONFIG_DIR"):
-        return Path(os.environ["TWBR_CONFIG_DIR"])
-    from ament_index_python.packages import get_package_share_directory
-
-    return Path(get_package_share_directory("twbr_sim")) / "config"
