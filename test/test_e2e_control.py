@@ -208,6 +208,7 @@ BAD_STARTS = [
     (["-p", "max_wheel_torque:=0.0"], "invalid parameter 'max_wheel_torque' = 0.0", "(0, 1000] N·m"),
     (["-p", "velocity.setpoint_weight:=1.5"], "'velocity.setpoint_weight' = 1.5", "[0, 1]"),
     (["-p", "cmd_vel_timeout:=fast"], "invalid parameter 'cmd_vel_timeout' = 'fast'", "[0.01, 60] s"),
+    (["-p", "fall_pitch:=0.1"], "invalid parameter 'max_pitch_ref' = 0.15", "below fall_pitch"),  # inconsistent
 ]
 
 

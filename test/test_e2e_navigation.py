@@ -146,6 +146,9 @@ BAD_PLANNER_STARTS = [
     (["-p", "k_p:=0.0"], "invalid parameter 'k_p' = 0.0", "(0, 1000] 1/s²"),
     (["-p", "rho_o:=-1.0"], "invalid parameter 'rho_o' = -1.0", "(0, 100] m"),
     (["-p", "v_max:=20.0"], "invalid parameter 'v_max' = 20.0", "(0, 10] m/s"),
+    (["-p", "k_s:=fast"], "invalid parameter 'k_s' = 'fast'", "(0, 100] 1/s"),
+    (["-p", "rho_o:=0.01"], "invalid parameter 'rho_o' = 0.01", "above min_distance = 0.02 m"),  # inconsistent
+    (["-p", "stuck_time:=0.2"], "invalid parameter 'stuck_progress' = 0.2", "below v_max * stuck_time"),
 ]
 
 

@@ -20,7 +20,7 @@ from twbr_common.guard import InputGuard, Verdict
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
 from twbr_common.ros_params import declare, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
-from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
+from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
 from twbr_control.state_sync import Action, RobotState, StateSync
 from twbr_msgs.msg import ControllerState, WheelTorques
 
@@ -28,7 +28,7 @@ from twbr_msgs.msg import ControllerState, WheelTorques
 class ControllerNode(Node):
     def __init__(self) -> None:
         super().__init__("controller_node")
-        cfg = {**declare(self, CONTROL_SPECS), **declare(self, NODE_SPECS)}
+        cfg = check_consistent({**declare(self, CONTROL_SPECS), **declare(self, NODE_SPECS)})
         self.cfg = cfg
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])

@@ -5,7 +5,7 @@ The gain defaults are the ones config/controller.yaml carries (tools/tune_gains.
 
 from __future__ import annotations
 
-from twbr_common.params import ParamSpec
+from twbr_common.params import ConfigError, ParamSpec
 
 GAIN_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("velocity.kp", 0.4529, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
@@ -53,3 +53,13 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
               " instead of Twist"),
     ParamSpec("start_enabled", True, "command torque from the start; false waits for ~/enable (std_srvs/SetBool)"),
 )
+
+
+def check_consistent(cfg: dict) -> dict:
+    """Refuse combinations that no single range can: a pitch reference the fall cut-off would trip on."""
+    if cfg["max_pitch_ref"] + abs(cfg["pitch_offset"]) >= cfg["fall_pitch"]:
+        raise ConfigError(
+            f"invalid parameter 'max_pitch_ref' = {cfg['max_pitch_ref']:g}: must be below fall_pitch"
+            f" - |pitch_offset| = {cfg['fall_pitch'] - abs(cfg['pitch_offset']):g} rad"
+        )
+    return cfg

@@ -26,7 +26,7 @@ from twbr_common.ros_params import declare, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
-from twbr_planner.planner_params import APF_SPECS, NODE_SPECS
+from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent
 
 LATEST_WORLD_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
@@ -37,7 +37,7 @@ FORCE_SCALE = 0.2
 class PlannerNode(Node):
     def __init__(self) -> None:
         super().__init__("planner_node")
-        self.cfg = {**declare(self, APF_SPECS), **declare(self, NODE_SPECS)}
+        self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
         self.core = ApfPlanner(self.cfg)
         self.odom_guard = InputGuard(self.cfg["odom_timeout"])
         self._due = Decimator(self.cfg["rate"])

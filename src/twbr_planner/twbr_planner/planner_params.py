@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from twbr_common.params import ParamSpec
+from twbr_common.params import ConfigError, ParamSpec
 
 APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
@@ -42,3 +42,17 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("enable_stamped_cmd_vel", False, "publish geometry_msgs/TwistStamped (Nav2's name) instead of Twist"),
     ParamSpec("marker_rate", 5.0, "rate of the force markers", "Hz", 0.1, 100.0),
 )
+
+
+def check_consistent(cfg: dict) -> dict:
+    """Refuse combinations that no single range can: repulsion that could never act, a target never reached."""
+    if cfg["min_distance"] >= cfg["rho_o"]:
+        raise ConfigError(
+            f"invalid parameter 'rho_o' = {cfg['rho_o']:g}: must be above min_distance = {cfg['min_distance']:g} m"
+        )
+    if cfg["stuck_progress"] >= cfg["v_max"] * cfg["stuck_time"]:
+        raise ConfigError(
+            f"invalid parameter 'stuck_progress' = {cfg['stuck_progress']:g}: must be below v_max * stuck_time"
+            f" = {cfg['v_max'] * cfg['stuck_time']:g} m (else a robot at full speed counts as stuck)"
+        )
+    return cfg

@@ -16,6 +16,7 @@ import numpy as np
 from twbr_common.params import defaults, validate_all
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS
+from twbr_control.controller_params import check_consistent as check_controller
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
@@ -56,7 +57,7 @@ def run_closed_loop(
     stop_on_fall: bool = True,
 ) -> Trace:
     """Run the cores for `duration` seconds of sim time; settings default to the parameter tables."""
-    control_cfg = validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})})
+    control_cfg = check_controller(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})}))
     sim_cfg = validate_all(SIM_SPECS, {**defaults(SIM_SPECS), **(sim or {})})
     sim_cfg["publish_rate"] = control_cfg["rate"]
     simulator = Simulator(robot_params(validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **(robot or {})})),
@@ -89,9 +90,9 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float = 20
                       log: list | None = None) -> Reference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz]."""
     from twbr_planner.apf import ApfPlanner, Obstacles, Target
-    from twbr_planner.planner_params import APF_SPECS
+    from twbr_planner.planner_params import APF_SPECS, check_consistent
 
-    cfg = validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})})
+    cfg = check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})}))
     core = ApfPlanner(cfg)
     period = 1.0 / rate
     held = {"next": 0.0, "cmd": (0.0, 0.0)}
