@@ -12,16 +12,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import statistics
 import sys
 import tempfile
 from pathlib import Path
 
 from twbr_runner.runner import RunOptions, run
-
-STATS = re.compile(r"(\d+) exchanges in ([\d.]+) s wall: ([\d.]+) exchanges/s, real-time factor ([\d.]+)")
-LATENCY = re.compile(r"median ([\d.]+) ms, p99 ([\d.]+) ms over (\d+) exchanges")
+from twbr_sim.run_report import parse_run_report
 
 
 def main() -> int:
@@ -36,13 +33,12 @@ def main() -> int:
     for k in range(args.runs):
         code, run_dir = run(RunOptions(Path(args.scenario), out, domain=(base + 1 + k) % 230, figures=False,
                                        quiet=True))
-        log = (run_dir / "logs" / "sim.err").read_text()
-        stats, latency = STATS.search(log), LATENCY.search(log)
-        if code != 0 or stats is None or latency is None:
+        report = parse_run_report((run_dir / "logs" / "sim.err").read_text())
+        if code != 0 or report is None or report.latency_median_ms is None:
             print(f"run {k + 1} failed (exit {code}); see {run_dir}/logs", file=sys.stderr)
             return 1
-        row = {"exchanges_per_s": float(stats.group(3)), "real_time_factor": float(stats.group(4)),
-               "latency_median_ms": float(latency.group(1)), "latency_p99_ms": float(latency.group(2))}
+        row = {"exchanges_per_s": report.exchanges_per_s, "real_time_factor": report.real_time_factor,
+               "latency_median_ms": report.latency_median_ms, "latency_p99_ms": report.latency_p99_ms}
         rows.append(row)
         print(f"run {k + 1}: {row['exchanges_per_s']:7.1f} exchanges/s, real-time factor {row['real_time_factor']:5.2f},"
               f" control latency median {row['latency_median_ms']:.3f} ms, p99 {row['latency_p99_ms']:.3f} ms")

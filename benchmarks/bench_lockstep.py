@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import statistics
 import sys
 import tempfile
@@ -18,9 +17,9 @@ import time
 from pathlib import Path
 
 from twbr_common.processes import loopback_env, start_node
+from twbr_sim.run_report import parse_run_report
 
 ROOT = Path(__file__).resolve().parents[1]
-STATS = re.compile(r"(\d+) exchanges in ([\d.]+) s wall: ([\d.]+) exchanges/s, real-time factor ([\d.]+)")
 
 
 def one_run(sim_seconds: float, scenario: str, domain: int, log_dir: Path) -> tuple[float, float]:
@@ -37,10 +36,10 @@ def one_run(sim_seconds: float, scenario: str, domain: int, log_dir: Path) -> tu
     finally:
         sim.stop()
         echo.stop()
-    m = STATS.search(sim.stderr)
-    if m is None:
+    report = parse_run_report(sim.stderr)
+    if report is None:
         raise RuntimeError(f"no statistics from sim_node:\n{sim.output}")
-    return float(m.group(3)), float(m.group(4))
+    return report.exchanges_per_s, report.real_time_factor
 
 
 def main() -> int:

@@ -18,7 +18,6 @@ import argparse
 import json
 import math
 import os
-import re
 import signal
 import sys
 import time
@@ -35,6 +34,7 @@ from twbr_common.processes import NodeProcess, loopback_env, start_node
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
+from twbr_sim.run_report import parse_run_report
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 
@@ -232,7 +232,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             if now - wall_start > wall_timeout:
                 raise TimeoutError(f"wall-clock limit of {wall_timeout:g} s reached at sim time"
                                    f" {progress.sim_time:.2f} s")
-        sim_wall = _stepping_wall_time(sim.output)
+        report = parse_run_report(sim.output)  # its own stepping time, without start-up and discovery
+        sim_wall = report.wall_s if report else None
         if sim.proc.returncode not in (0, -signal.SIGINT) and reason == "completed":
             raise RuntimeError(f"sim exited with code {sim.proc.returncode}:\n{_tail(sim.output)}")
         _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s: {reason}" + " " * 20)
@@ -318,12 +319,6 @@ def summary(m: dict[str, Any], run_dir: Path, figures: list[Path]) -> str:
     lines.append(f"  wrote {run_dir / 'metrics.json'}" + (f" and {len(figures)} figures" if figures else "")
                  + f"; bag in {run_dir / 'bag'}")
     return "\n".join(lines)
-
-
-def _stepping_wall_time(sim_log: str) -> float | None:
-    """The wall time the simulator spent stepping (its own measurement, without start-up and discovery)."""
-    found = re.search(r"exchanges in ([0-9.]+) s wall", sim_log)
-    return float(found.group(1)) if found else None
 
 
 def _tail(text: str, lines: int = 15) -> str:

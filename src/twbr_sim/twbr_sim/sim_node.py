@@ -37,6 +37,7 @@ from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
+from twbr_sim.run_report import latency_text, rates_text
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
@@ -270,15 +271,11 @@ class SimNode(Node):
             final = to_stamp(self.sim.step_count * self._step_ns)
             self.pub_status.publish(self.status_message(final))  # the run's final counters
             flush_publishers(self)
-        rates = (
-            f"; {self._exchanges} exchanges in {wall:.3f} s wall: {self._exchanges / wall:.1f} exchanges/s,"
-            f" real-time factor {(self.sim.time - self._sim_start) / wall:.2f}" if wall > 0 else ""
-        )
+        rates = rates_text(self._exchanges, wall, self.sim.time - self._sim_start) if wall > 0 else ""
         latency = ""
         if self._latencies:
             ms = np.array(self._latencies) * 1e3
-            latency = (f"; command latency (state publish -> its command received) median"
-                       f" {np.median(ms):.3f} ms, p99 {np.percentile(ms, 99):.3f} ms over {len(ms)} exchanges")
+            latency = latency_text(float(np.median(ms)), float(np.percentile(ms, 99)), len(ms))
         self.get_logger().info(
             f"stopped at t = {self.sim.time:.3f} s after {self.sim.step_count} steps,"
             f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}{latency}"

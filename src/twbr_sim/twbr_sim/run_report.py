@@ -1,0 +1,45 @@
+"""sim_node's closing line (exchanges, wall time, real-time factor, control latency): written and read here.
+
+The runner, the benchmarks and the tests read these figures from the simulator's log; keeping the format
+and its parser in one module means a change to one cannot silently break the others.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+_RATES = re.compile(r"(\d+) exchanges in ([\d.]+) s wall: ([\d.]+) exchanges/s, real-time factor ([\d.]+)")
+_LATENCY = re.compile(r"median ([\d.]+) ms, p99 ([\d.]+) ms over (\d+) exchanges")
+
+
+def rates_text(exchanges: int, wall_s: float, sim_s: float) -> str:
+    return (f"; {exchanges} exchanges in {wall_s:.3f} s wall: {exchanges / wall_s:.1f} exchanges/s,"
+            f" real-time factor {sim_s / wall_s:.2f}")
+
+
+def latency_text(median_ms: float, p99_ms: float, count: int) -> str:
+    return (f"; command latency (state publish -> its command received) median {median_ms:.3f} ms,"
+            f" p99 {p99_ms:.3f} ms over {count} exchanges")
+
+
+@dataclass(frozen=True)
+class RunReport:
+    exchanges: int
+    wall_s: float  # from the first step to the last
+    exchanges_per_s: float
+    real_time_factor: float
+    latency_median_ms: float | None
+    latency_p99_ms: float | None
+
+
+def parse_run_report(log: str) -> RunReport | None:
+    """The figures of sim_node's closing line in `log`, or None when it did not get to step."""
+    rates = _RATES.search(log)
+    if rates is None:
+        return None
+    latency = _LATENCY.search(log)
+    return RunReport(
+        int(rates.group(1)), float(rates.group(2)), float(rates.group(3)), float(rates.group(4)),
+        float(latency.group(1)) if latency else None, float(latency.group(2)) if latency else None,
+    )
