@@ -251,21 +251,22 @@ class SimNode(Node):
         wanted = self.cfg["wait_for_subscribers"]
         if wanted == 0:
             return
-        executor = SingleThreadedExecutor(context=self.context)
-        executor.add_node(self)
         self.get_logger().info(f"waiting for {wanted} odom subscriber(s)")
         while self.context.ok() and self.pub_odom.get_subscription_count() < wanted:
-            executor.spin_once(timeout_sec=0.02)
-        executor.remove_node(self)
+            self._executor.spin_once(timeout_sec=0.02)
 
     def run(self) -> None:
         self._wall_start: float | None = None
         self._exchanges = 0
+        # One executor for the whole run: this node drives its own loop and spins only between steps.
+        self._executor = SingleThreadedExecutor(context=self.context)
+        self._executor.add_node(self)
         self._wait_for_subscribers()
         if self.lockstep:
             self._run_lockstep()
         else:
             self._run_realtime()
+        self._executor.remove_node(self)
         wall = time.monotonic() - self._wall_start if self._wall_start is not None else 0.0
         if self.context.ok():
             final = to_stamp(self.sim.step_count * self._step_ns)
@@ -290,8 +291,7 @@ class SimNode(Node):
         self.publish_state()
 
     def _run_lockstep(self) -> None:
-        executor = SingleThreadedExecutor(context=self.context)
-        executor.add_node(self)
+        executor = self._executor
         timeout = self.cfg["lockstep_timeout"]
         waiting_first = self.cfg["wait_for_first_command"]
         self.publish_state()
@@ -310,12 +310,10 @@ class SimNode(Node):
             waiting_first = False
             self._matched = False
             self._step_and_publish()
-        executor.remove_node(self)
 
     def _run_realtime(self) -> None:
         period = 1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"])
-        executor = SingleThreadedExecutor(context=self.context)
-        executor.add_node(self)
+        executor = self._executor
         self.publish_state()
         next_tick = time.monotonic() + period
         while self.context.ok() and not self._finished():
@@ -325,7 +323,6 @@ class SimNode(Node):
                 self._step_and_publish()
                 # Keep the schedule, but never try to catch up more than one period after a stall.
                 next_tick = max(next_tick + period, now - period)
-        executor.remove_node(self)
 
 
 def main(args: list[str] | None = None) -> int:
