@@ -93,7 +93,8 @@ def test_yaw_rate_step_through_the_runner(tmp_path, ros_domain):
     assert metrics["velocity_step"]["settle_time_s"] <= 1.5  # the forward step while turning
 
 
-def test_ctrl_c_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domain):
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_stopped_runner_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domain, signum):
     env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "twbr_runner.runner", "dynamic_obstacles", "--out", str(tmp_path), "--domain",
@@ -105,10 +106,10 @@ def test_ctrl_c_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
     run = only_run_dir(tmp_path)
     time.sleep(5.0)  # mid-run: the scenario is 90 s of sim time
     assert proc.poll() is None
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signum)
     out, _ = proc.communicate(timeout=60)
-    assert proc.returncode == 130, out
-    assert "interrupted by SIGINT" in out
+    assert proc.returncode == 128 + signum, out
+    assert f"interrupted by {signal.Signals(signum).name}" in out
     # No process of the run is left: the command lines name the run's bag or parameter files.
     leftover = subprocess.run(["pgrep", "-f", str(tmp_path)], capture_output=True, text=True).stdout.split()
     assert leftover == []

@@ -149,6 +149,8 @@ BAD_PLANNER_STARTS = [
     (["-p", "k_s:=fast"], "invalid parameter 'k_s' = 'fast'", "(0, 100] 1/s"),
     (["-p", "rho_o:=0.01"], "invalid parameter 'rho_o' = 0.01", "above min_distance = 0.02 m"),  # inconsistent
     (["-p", "stuck_time:=0.2"], "invalid parameter 'stuck_progress' = 0.2", "below v_max * stuck_time"),
+    (["-p", "robot_radius:=0.5", "-p", "rho_o:=0.4"], "invalid parameter 'rho_o' = 0.4",
+     "at least robot_radius = 0.5 m"),  # inconsistent: a detection range smaller than the robot
 ]
 
 

@@ -176,7 +176,7 @@ def test_bad_commands_are_dropped_and_saturation_is_flagged(launch, ros):
     assert status.commands_rejected >= 5
     assert status.lockstep_timeouts == 0  # the good command of every exchange still arrived
     assert max(abs(m.effort[0]) for m in rec.msgs["joint_states"]) <= 15.0 + 1e-6
-    assert "dropped wheel_torque_cmd (non-finite value)" in sim.stderr
+    assert "dropped wheel_torque_cmd: non-finite value" in sim.stderr
     assert "past the motor limit 15 N*m: clipped" in sim.stderr
 
 
@@ -247,13 +247,15 @@ BAD_STARTS = [
     ("sim_node", ["-p", "use_sim_time:=true"], "'use_sim_time' = True", "sim_node is the clock"),
     ("world_node", ["-p", "robot_radius:=0.0"], "invalid parameter 'robot_radius' = 0.0", "(0, 10] m"),
     ("world_node", ["-p", "rate:=0.0"], "invalid parameter 'rate' = 0.0", "[0.1, 1000] Hz"),
+    ("world_node", ["-p", "seed:=lucky"], "invalid parameter 'seed' = 'lucky'", "[-1, 2147483647]"),
+    ("command_player", ["-p", "rate:=0.5"], "invalid parameter 'rate' = 0.5", "[1, 1000] Hz"),
 ]
+NODE_PARAMS = {"sim_node": SIM_PARAMS, "world_node": ("world.yaml",), "command_player": ("command_player.yaml",)}
 
 
 @pytest.mark.parametrize(("node", "args", "names", "valid"), BAD_STARTS)
 def test_bad_parameters_stop_the_node_with_one_clear_message(launch, node, args, names, valid):
-    params = SIM_PARAMS if node == "sim_node" else ("world.yaml",)
-    assert_refused_at_start(launch("twbr_sim", node, *args, params=params), names, valid)
+    assert_refused_at_start(launch("twbr_sim", node, *args, params=NODE_PARAMS[node]), names, valid)
 
 
 def test_malformed_scenario_file_stops_the_node_naming_the_field(launch, tmp_path):

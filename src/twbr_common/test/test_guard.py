@@ -50,3 +50,38 @@ def test_decimator_fires_once_per_period_without_bursts():
     d2 = Decimator(10.0)
     assert d2.due(0.0) and not d2.due(0.05) and d2.due(0.1)
     assert d2.due(5.0) and not d2.due(5.01)  # a stall does not queue up a burst
+
+
+def test_guard_refuses_absurdly_large_values_past_its_limit():
+    g = InputGuard(timeout=0.1, limit=100.0)
+    assert g.offer(1.0, (100.0, -100.0), now=1.0) is Verdict.ACCEPTED
+    assert g.offer(1.01, (1e9, 0.0), now=1.01) is Verdict.IMPLAUSIBLE
+    assert g.offer(1.01, (0.0, -100.5), now=1.01) is Verdict.IMPLAUSIBLE
+    assert g.last_stamp == 1.0
+
+
+def test_a_clock_going_back_restarts_the_stream_but_an_old_stamp_alone_does_not():
+    g = InputGuard(timeout=0.5)
+    assert g.offer(10.0, (1.0,), now=10.0) is Verdict.ACCEPTED
+    assert g.offer(9.8, (1.0,), now=10.01) is Verdict.OUT_OF_ORDER  # injected: the clock did not go back
+    assert g.clock_jumps == 0
+    assert g.offer(0.02, (1.0,), now=0.02) is Verdict.ACCEPTED  # the simulator restarted: so did the clock
+    assert g.clock_jumps == 1 and g.last_stamp == 0.02
+
+
+def test_drop_report_warns_once_per_period_per_stream_with_the_count(monkeypatch):
+    from twbr_common import guard as guard_module
+
+    clock = [100.0]
+    monkeypatch.setattr(guard_module.time, "monotonic", lambda: clock[0])
+    lines: list[str] = []
+    report = guard_module.DropReport(lines.append, period=1.0)
+    g = InputGuard(timeout=0.1)
+    for _ in range(5):
+        assert not report.admit(g, "odom", 1.0, (math.nan,), now=1.0)
+    report.dropped("imu", "no stamp")  # another stream is not hidden behind odom's throttle
+    clock[0] += 1.0
+    report.dropped("odom", "no stamp")
+    assert lines == ["dropped odom: non-finite value", "dropped imu: no stamp",
+                     "dropped odom: no stamp (5 dropped since the last warning)"]
+    assert report.total == {"odom": 6, "imu": 1}

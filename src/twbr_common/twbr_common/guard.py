@@ -1,23 +1,32 @@
 """Admission of stamped inputs: what may reach the physics, the motors or a controller.
 
-A message is refused when a value is NaN/inf, when it has no stamp (zero, once the clock is past the
-timeout: at sim time 0 a zero stamp is a real one), when its stamp is already older than the timeout
-(stale on arrival), or when its stamp is older than the last one accepted (out of order). An input not
-refreshed within its timeout is stale, and the caller then falls back to its safe value (zero torque,
-zero velocity). Stamps and `now` are seconds of the same clock (sim time in simulation). Pure Python.
+A message is refused when a value is NaN/inf or absurdly large (past the stream's `limit`), when it has
+no stamp (zero, once the clock is past the timeout: at sim time 0 a zero stamp is a real one), when its
+stamp is already older than the timeout (stale on arrival), or when its stamp is older than the last one
+accepted (out of order). An input not refreshed within its timeout is stale, and the caller then falls
+back to its safe value (zero torque, zero velocity). Stamps and `now` are seconds of the same clock (sim
+time in simulation). Pure Python.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from enum import Enum
+
+# Largest magnitudes a stream's values may have (SI units). Far past anything a balancing robot does, so
+# only garbage (a unit mix-up, uninitialised memory, a corrupted message) is refused, never a hard manoeuvre.
+RATE_LIMIT = 100.0  # speeds, angular rates and angles [m/s, rad/s, rad]
+POSITION_LIMIT = 1e5  # positions and distances [m]
+TORQUE_LIMIT = 1e3  # wheel torques [N·m]: the top of the controller's max_wheel_torque range
 
 
 class Verdict(Enum):
     ACCEPTED = "accepted"
     NON_FINITE = "non-finite value"
+    IMPLAUSIBLE = "absurdly large value"
     UNSTAMPED = "no stamp"
     STALE = "stamp older than the timeout"
     OUT_OF_ORDER = "stamp older than the last accepted"
@@ -26,17 +35,26 @@ class Verdict(Enum):
 class InputGuard:
     """Tracks one input stream: the last accepted stamp, when it arrived, and what was refused."""
 
-    def __init__(self, timeout: float, require_stamp: bool = True) -> None:
+    def __init__(self, timeout: float, require_stamp: bool = True, limit: float = math.inf) -> None:
         if not timeout > 0.0:
             raise ValueError("timeout must be > 0")
         self.timeout = timeout
         self.require_stamp = require_stamp
+        self.limit = limit
         self.last_stamp: float | None = None
         self.last_receipt: float | None = None
         self.rejected: Counter[Verdict] = Counter()
+        self.clock_jumps = 0
 
     def offer(self, stamp: float, values: Iterable[float], now: float) -> Verdict:
-        """Judge a message stamped `stamp` received at `now` (both in seconds of the node's clock)."""
+        """Judge a message stamped `stamp` received at `now` (both in seconds of the node's clock).
+
+        The node's own clock going back (a restarted simulator, a bag replayed from its start) starts the
+        stream afresh; a message cannot move that clock, so an old stamp alone is still refused.
+        """
+        if self.last_receipt is not None and now < self.last_receipt:
+            self.reset()
+            self.clock_jumps += 1
         verdict = self._judge(stamp, values, now)
         if verdict is Verdict.ACCEPTED:
             self.last_stamp = stamp
@@ -46,8 +64,11 @@ class InputGuard:
         return verdict
 
     def _judge(self, stamp: float, values: Iterable[float], now: float) -> Verdict:
+        values = tuple(values)
         if not all(math.isfinite(v) for v in values):
             return Verdict.NON_FINITE
+        if any(abs(v) > self.limit for v in values):
+            return Verdict.IMPLAUSIBLE
         if self.require_stamp:
             if stamp <= 0.0 and now > self.timeout:
                 return Verdict.UNSTAMPED
@@ -69,3 +90,34 @@ class InputGuard:
         """Forget the stream (after a clock jump back, e.g. a replayed bag restarting)."""
         self.last_stamp = None
         self.last_receipt = None
+
+
+class DropReport:
+    """Warns about refused messages at most once per `period` per stream, with the count since the last warning.
+
+    rclpy's own throttle is per call site, so one noisy stream would hide the others behind a shared line.
+    """
+
+    def __init__(self, warn: Callable[[str], None], period: float = 1.0) -> None:
+        self._warn = warn
+        self.period = period
+        self._last: dict[str, float] = {}
+        self._pending: Counter[str] = Counter()
+        self.total: Counter[str] = Counter()
+
+    def admit(self, guard: InputGuard, stream: str, stamp: float, values: Iterable[float], now: float) -> bool:
+        """Offer a message to its stream's guard; warn (throttled) when it is refused."""
+        verdict = guard.offer(stamp, values, now)
+        if verdict is Verdict.ACCEPTED:
+            return True
+        self.dropped(stream, verdict.value)
+        return False
+
+    def dropped(self, stream: str, reason: str) -> None:
+        self._pending[stream] += 1
+        self.total[stream] += 1
+        now = time.monotonic()
+        if now - self._last.get(stream, -math.inf) >= self.period:
+            self._last[stream] = now
+            n = self._pending.pop(stream)
+            self._warn(f"dropped {stream}: {reason}" + (f" ({n} dropped since the last warning)" if n > 1 else ""))

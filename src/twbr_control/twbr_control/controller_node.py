@@ -16,7 +16,7 @@ from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
 from twbr_common.geometry import rpy_from_quaternion
-from twbr_common.guard import InputGuard, Verdict
+from twbr_common.guard import RATE_LIMIT, DropReport, InputGuard
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
 from twbr_common.ros_params import declare, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
@@ -32,10 +32,11 @@ class ControllerNode(Node):
         self.cfg = cfg
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
-        self.odom_guard = InputGuard(cfg["state_timeout"])
-        self.imu_guard = InputGuard(cfg["state_timeout"])
+        self.odom_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)
+        self.imu_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)
         stamped = cfg["enable_stamped_cmd_vel"]
-        self.cmd_guard = InputGuard(cfg["cmd_vel_timeout"], require_stamp=stamped)
+        self.cmd_guard = InputGuard(cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
+        self.drops = DropReport(self.get_logger().warning)
         self.velocity_ref = 0.0
         self.yaw_rate_ref = 0.0
         self._last_command: WheelTorques | None = None
@@ -61,21 +62,14 @@ class ControllerNode(Node):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _admit(self, guard: InputGuard, stream: str, stamp: float, values: tuple[float, ...]) -> bool:
-        verdict = guard.offer(stamp, values, self._now())
-        if verdict is Verdict.ACCEPTED:
-            return True
-        if verdict is Verdict.OUT_OF_ORDER and guard.last_stamp is not None and \
-                guard.last_stamp - stamp > self.cfg["state_timeout"] and guard is not self.cmd_guard:
-            # Time jumped back (a restarted simulator, a bag replayed from the start): start afresh.
-            self.get_logger().warn(f"{stream} time jumped back from {guard.last_stamp:.3f} s to {stamp:.3f} s:"
-                                   " resetting the controller")
-            for g in (self.odom_guard, self.imu_guard, self.cmd_guard):
-                g.reset()
+        jumps = guard.clock_jumps
+        accepted = self.drops.admit(guard, stream, stamp, values, self._now())
+        if guard.clock_jumps != jumps:
+            # The clock went back (a restarted simulator, a bag replayed from the start): start afresh.
+            self.get_logger().warning(f"clock jumped back (seen on {stream}): resetting the controller")
             self.sync.reset()
             self.controller.reset()
-            return guard.offer(stamp, values, self._now()) is Verdict.ACCEPTED
-        self.get_logger().warn(f"dropped {stream}: {verdict.value}", throttle_duration_sec=1.0)
-        return False
+        return accepted
 
     def _on_odom(self, msg: Odometry) -> None:
         stamp = stamp_seconds(msg.header.stamp)
@@ -89,7 +83,7 @@ class ControllerNode(Node):
         o = msg.orientation
         _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         pitch_rate = msg.angular_velocity.y
-        if self._admit(self.imu_guard, "imu", stamp, (pitch, pitch_rate)):
+        if self._admit(self.imu_guard, "imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
             self._stamps["imu"] = msg.header.stamp
             self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
 

@@ -19,7 +19,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import rpy_from_quaternion
-from twbr_common.guard import InputGuard, Verdict
+from twbr_common.guard import POSITION_LIMIT, DropReport, InputGuard
 from twbr_common.markers import arrow
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, run_node
@@ -39,7 +39,12 @@ class PlannerNode(Node):
         super().__init__("planner_node")
         self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
         self.core = ApfPlanner(self.cfg)
-        self.odom_guard = InputGuard(self.cfg["odom_timeout"])
+        self.odom_guard = InputGuard(self.cfg["odom_timeout"], limit=POSITION_LIMIT)
+        # Stale on arrival, out of order or unstamped: with depth-1 world queues, a bad sample would
+        # otherwise replace the good one.
+        self.target_guard = InputGuard(self.cfg["world_timeout"], limit=POSITION_LIMIT)
+        self.obstacles_guard = InputGuard(self.cfg["world_timeout"], limit=POSITION_LIMIT)
+        self.drops = DropReport(self.get_logger().warning)
         self._due = Decimator(self.cfg["rate"])
         self._marker_due = Decimator(self.cfg["marker_rate"])
         self._target: tuple[float, Target] | None = None
@@ -61,34 +66,37 @@ class PlannerNode(Node):
         )
 
     # --- inputs -------------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _admit(self, guard: InputGuard, stream: str, stamp: float, values) -> bool:
+        return self.drops.admit(guard, stream, stamp, values, self._now())
+
     def _on_target(self, msg: Odometry) -> None:
         o = msg.pose.pose.orientation
         _, _, heading = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         speed = msg.twist.twist.linear.x
+        stamp = stamp_seconds(msg.header.stamp)
         values = (msg.pose.pose.position.x, msg.pose.pose.position.y, heading, speed)
-        if not all(math.isfinite(v) for v in values):
-            self.get_logger().warn("dropped target: non-finite value", throttle_duration_sec=1.0)
-            return
-        target = Target(values[0], values[1], speed * math.cos(heading), speed * math.sin(heading))
-        self._target = (stamp_seconds(msg.header.stamp), target)
+        if self._admit(self.target_guard, "target", stamp, values):
+            target = Target(values[0], values[1], speed * math.cos(heading), speed * math.sin(heading))
+            self._target = (stamp, target)
 
     def _on_obstacles(self, msg: ObstacleArray) -> None:
+        stamp = stamp_seconds(msg.header.stamp)
         numbers = [v for o in msg.obstacles for v in (o.position.x, o.position.y, o.velocity.x, o.velocity.y,
                                                       o.radius)]
-        if not all(math.isfinite(v) for v in numbers) or any(o.radius < 0.0 for o in msg.obstacles):
-            self.get_logger().warn("dropped obstacles: non-finite value or negative radius",
-                                   throttle_duration_sec=1.0)
-            return
-        self._obstacles = (stamp_seconds(msg.header.stamp), msg)
+        if any(o.radius < 0.0 for o in msg.obstacles):
+            self.drops.dropped("obstacles", "negative radius")
+        elif self._admit(self.obstacles_guard, "obstacles", stamp, numbers):
+            self._obstacles = (stamp, msg)
 
     def _on_odom(self, msg: Odometry) -> None:
         stamp = stamp_seconds(msg.header.stamp)
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
         _, _, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         speed = msg.twist.twist.linear.x
-        verdict = self.odom_guard.offer(stamp, (p.x, p.y, yaw, speed), self.get_clock().now().nanoseconds * 1e-9)
-        if verdict is not Verdict.ACCEPTED:
-            self.get_logger().warn(f"dropped odom: {verdict.value}", throttle_duration_sec=1.0)
+        if not self._admit(self.odom_guard, "odom", stamp, (p.x, p.y, yaw, speed)):
             return
         if self._last_plan is not None and stamp == self._last_plan[0]:
             # The same state offered again (a lockstep simulator waiting at t = 0): answer it again.

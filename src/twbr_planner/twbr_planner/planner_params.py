@@ -50,6 +50,11 @@ def check_consistent(cfg: dict) -> dict:
         raise ConfigError(
             f"invalid parameter 'rho_o' = {cfg['rho_o']:g}: must be above min_distance = {cfg['min_distance']:g} m"
         )
+    if cfg["rho_o"] < cfg["robot_radius"]:
+        raise ConfigError(
+            f"invalid parameter 'rho_o' = {cfg['rho_o']:g}: must be at least robot_radius = {cfg['robot_radius']:g} m"
+            " (a detection range smaller than the robot sees obstacles only once they are about to touch it)"
+        )
     if cfg["stuck_progress"] >= cfg["v_max"] * cfg["stuck_time"]:
         raise ConfigError(
             f"invalid parameter 'stuck_progress' = {cfg['stuck_progress']:g}: must be below v_max * stuck_time"

@@ -54,39 +54,73 @@ class RunSeries:
     obstacles: list[tuple[float, list[tuple[int, float, float, float]]]] = field(default_factory=list)
     planner: list[Any] = field(default_factory=list)  # PlannerState messages in stamp order
     counts: dict[str, int] = field(default_factory=dict)
+    refused: dict[str, int] = field(default_factory=dict)  # messages no node would accept, by topic
     messages: dict[str, list[tuple[int, Any]]] = field(default_factory=dict)
 
 
-def _dedupe_by_stamp(items: list[tuple[int, Any]]) -> list[Any]:
-    """Messages in stamp order, one per stamp (a lockstep simulator may re-offer its first state)."""
+# The numbers each measured topic contributes, for admission (see _admitted).
+_VALUES: dict[str, Any] = {
+    "/odom": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.orientation.x,
+                        m.pose.pose.orientation.y, m.pose.pose.orientation.z, m.pose.pose.orientation.w,
+                        m.twist.twist.linear.x, m.twist.twist.angular.z),
+    "/target": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
+    "/obstacles": lambda m: tuple(v for o in m.obstacles for v in (o.position.x, o.position.y, o.radius)),
+    "/planner_state": lambda m: (m.velocity_cmd, m.yaw_rate_cmd, m.distance_to_target),
+    "/controller_state": lambda m: tuple(float(getattr(m, name)) for name in CONTROLLER_FIELDS),
+    "/joint_states": lambda m: tuple(m.effort),
+    "/world_status": lambda m: (m.target_distance,),
+    "/sim_status": lambda m: (m.pitch,),
+}
+_ABSURD = 1e5  # [SI] past any value a run of this robot produces: garbage, as the nodes' guards judge it
+
+
+def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int], keep_last: bool = False) -> list[Any]:
+    """The messages a node would have accepted, in stamp order, one per stamp.
+
+    A bag records everything on a topic, including what another publisher injected (NaN, absurd values, no
+    stamp, out of order); the metrics are of the run, so they read only what passes the nodes' own rules.
+    A lockstep simulator may re-offer its first state: equal stamps keep the first (statuses: the last, which
+    carries the final counters).
+    """
+    values = _VALUES.get(topic, lambda m: ())
     by_stamp: dict[float, Any] = {}
-    for _, msg in items:
-        by_stamp.setdefault(stamp_of(msg), msg)
+    newest = -math.inf
+    for _, msg in sorted(items, key=lambda item: item[0]):
+        t = stamp_of(msg)
+        numbers = [v for v in values(msg) if not isinstance(v, bool)]
+        if t < newest or not all(math.isfinite(v) and abs(v) <= _ABSURD for v in numbers):
+            refused[topic] = refused.get(topic, 0) + 1
+            continue
+        newest = t
+        if keep_last:
+            by_stamp[t] = msg
+        else:
+            by_stamp.setdefault(t, msg)
     return [by_stamp[t] for t in sorted(by_stamp)]
 
 
 def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSeries:
     s = RunSeries(counts={t: len(v) for t, v in messages.items()}, messages=dict(messages))
-    control = _dedupe_by_stamp(messages.get("/controller_state", []))
+    control = _admitted("/controller_state", messages.get("/controller_state", []), s.refused)
     s.control_t = np.array([stamp_of(m) for m in control])
     s.control = {name: np.array([float(getattr(m, name)) for m in control]) for name in CONTROLLER_FIELDS}
-    odom = _dedupe_by_stamp(messages.get("/odom", []))
+    odom = _admitted("/odom", messages.get("/odom", []), s.refused)
     s.odom_t = np.array([stamp_of(m) for m in odom])
     s.x_c = np.array([m.pose.pose.position.x for m in odom])
     s.y_c = np.array([m.pose.pose.position.y for m in odom])
     s.pitch = np.array([rpy_from_quaternion(m.pose.pose.orientation.x, m.pose.pose.orientation.y,
                                             m.pose.pose.orientation.z, m.pose.pose.orientation.w)[1] for m in odom])
-    joints = _dedupe_by_stamp(messages.get("/joint_states", []))
+    joints = _admitted("/joint_states", messages.get("/joint_states", []), s.refused)
     s.joints_t = np.array([stamp_of(m) for m in joints])
     s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
-    s.sim_status = [m for _, m in sorted(messages.get("/sim_status", []), key=lambda x: stamp_of(x[1]))]
-    s.world_status = [m for _, m in sorted(messages.get("/world_status", []), key=lambda x: stamp_of(x[1]))]
-    target = _dedupe_by_stamp(messages.get("/target", []))
+    s.sim_status = _admitted("/sim_status", messages.get("/sim_status", []), s.refused, keep_last=True)
+    s.world_status = _admitted("/world_status", messages.get("/world_status", []), s.refused, keep_last=True)
+    target = _admitted("/target", messages.get("/target", []), s.refused)
     s.target_t = np.array([stamp_of(m) for m in target])
     s.target_xy = np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for m in target]).reshape(-1, 2)
     s.obstacles = [(stamp_of(m), [(o.id, o.position.x, o.position.y, o.radius) for o in m.obstacles])
-                   for m in _dedupe_by_stamp(messages.get("/obstacles", []))]
-    s.planner = _dedupe_by_stamp(messages.get("/planner_state", []))
+                   for m in _admitted("/obstacles", messages.get("/obstacles", []), s.refused)]
+    s.planner = _admitted("/planner_state", messages.get("/planner_state", []), s.refused)
     return s
 
 
@@ -164,6 +198,7 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
         "commands_rejected": int(last_status.commands_rejected) if last_status else None,
         "control_samples": len(s.control_t),
         "messages": s.counts,
+        "messages_refused": s.refused,
     }
     # After the first transient: from TRANSIENT_S after the first non-zero reference to the end.
     moving = np.flatnonzero((np.abs(c["velocity_ref"]) > 1e-9) | (np.abs(c["yaw_rate_ref"]) > 1e-9))

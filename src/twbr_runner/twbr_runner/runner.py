@@ -56,7 +56,6 @@ RECORDED_TOPICS = {
     "planner_markers": "visualization_msgs/msg/MarkerArray",
 }
 EXIT_FAILED = 1
-EXIT_INTERRUPTED = 130
 
 
 @dataclass
@@ -160,11 +159,13 @@ class Progress:
 
 
 class Interrupted(Exception):
-    pass
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
 
 
 def _on_signal(signum: int, _frame: Any) -> None:
-    raise Interrupted(signal.Signals(signum).name)
+    raise Interrupted(signum)
 
 
 def _say(opts: RunOptions, text: str, end: str = "\n") -> None:
@@ -239,7 +240,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s: {reason}" + " " * 20)
         progress.spin(0.3)  # let the last messages reach the recorder
     except Interrupted as e:
-        code, reason = EXIT_INTERRUPTED, f"interrupted by {e}"
+        code, reason = 128 + e.signum, f"interrupted by {e}"  # the shell's convention: 130 SIGINT, 143 SIGTERM
     except (RuntimeError, TimeoutError, ConfigError) as e:
         code, reason = EXIT_FAILED, f"failed: {e}"
     finally:

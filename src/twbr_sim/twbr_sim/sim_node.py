@@ -21,7 +21,7 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import quaternion_from_rpy
-from twbr_common.guard import Verdict
+from twbr_common.guard import DropReport, Verdict
 from twbr_common.params import ConfigError
 from twbr_common.ros_io import (
     COMMAND_QOS,
@@ -67,6 +67,7 @@ class SimNode(Node):
         self._status_flags: tuple | None = None
         self._published_at: float | None = None
         self._latencies: list[float] = []
+        self.drops = DropReport(self.get_logger().warning)
 
         self.pub_clock = self.create_publisher(Clock, "/clock", 10)
         self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
@@ -109,10 +110,8 @@ class SimNode(Node):
         self._commands_received += 1
         result = self.sim.offer_command(stamp_seconds(msg.header.stamp), msg.left, msg.right)
         if result.verdict is not Verdict.ACCEPTED:
-            self.get_logger().warning(
-                f"dropped wheel_torque_cmd ({result.verdict.value}): left={msg.left} right={msg.right}",
-                throttle_duration_sec=1.0,
-            )
+            self.drops.dropped("wheel_torque_cmd", f"{result.verdict.value} (left={msg.left:.6g},"
+                                                   f" right={msg.right:.6g}, stamp {stamp_seconds(msg.header.stamp):.3f} s)")
             return
         if result.saturated:
             self.get_logger().warning(
@@ -126,7 +125,10 @@ class SimNode(Node):
             self._matched = True
 
     def _on_planner_state(self, msg: PlannerState) -> None:
-        self._planner_ns = stamp_ns(msg.header.stamp)
+        # Only the answer to the pending state counts: any other (a late one, a stray publisher) must not
+        # overwrite it, or the simulator would wait for an answer it already had.
+        if stamp_ns(msg.header.stamp) == self._pending_ns:
+            self._planner_ns = self._pending_ns
 
     def _answered(self) -> bool:
         """The command for the pending state arrived, and the planner's output too when it is due."""
@@ -196,6 +198,8 @@ class SimNode(Node):
             tf.transform.rotation = pose.orientation
             self.pub_tf.publish(TFMessage(transforms=[tf]))
         flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
+        if self._status_flags is not None and flags[2] != self._status_flags[2]:
+            self._report_command_stale(sim.command_stale)
         if self._world_due.due(t) or flags != self._status_flags:
             self._status_flags = flags
             self.pub_status.publish(self.status_message(stamp))
@@ -207,6 +211,15 @@ class SimNode(Node):
                 world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
             )
         self._pending_ns = now_ns
+
+    def _report_command_stale(self, stale: bool) -> None:
+        if stale:
+            self.get_logger().error(
+                f"no valid wheel_torque_cmd for command_timeout = {self.cfg['command_timeout']:g} s at"
+                f" t = {self.sim.time:.3f} s: zero torque until one arrives"
+            )
+        else:
+            self.get_logger().info(f"wheel_torque_cmd arriving at t = {self.sim.time:.3f} s: torque applied")
 
     def status_message(self, stamp) -> SimStatus:
         sim = self.sim
@@ -307,6 +320,11 @@ class SimNode(Node):
                     self.publish_state()  # nobody has answered yet: offer the initial state again
                     continue
                 self.sim.lockstep_timeouts += 1
+                self.get_logger().warning(
+                    f"lockstep timeout at t = {self.sim.time:.3f} s: no {'command' if not self._matched else 'planner_state'}"
+                    f" within {timeout:g} s wall; stepping on ({self.sim.lockstep_timeouts} so far)",
+                    throttle_duration_sec=1.0,
+                )
             waiting_first = False
             self._matched = False
             self._step_and_publish()

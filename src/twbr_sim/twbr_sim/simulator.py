@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twbr_common.guard import InputGuard, Verdict
+from twbr_common.guard import TORQUE_LIMIT, InputGuard, Verdict
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
 from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
@@ -81,7 +81,7 @@ class Simulator:
         self.h = 1.0 / settings["physics_rate"]
         self.steps_per_publish = steps_per_publish(settings["physics_rate"], settings["publish_rate"])
         self.torque_limit = wheel_torque_limit(robot)
-        self.guard = InputGuard(settings["command_timeout"])
+        self.guard = InputGuard(settings["command_timeout"], limit=TORQUE_LIMIT)
         self.scenario = scenario
         self.world = World(scenario, robot[P_ROBOT_RADIUS], seed) if scenario is not None else None
         self.imu_model = ImuModel(settings, seed)
@@ -102,7 +102,7 @@ class Simulator:
         return self.step_count * self.h
 
     def offer_command(self, stamp: float, left: float, right: float) -> CommandResult:
-        """Admit a wheel_torque_cmd; NaN/inf, unstamped and out-of-order ones never reach the motors."""
+        """Admit a wheel_torque_cmd; NaN/inf, absurd, unstamped and out-of-order ones never reach the motors."""
         verdict = self.guard.offer(stamp, (left, right), self.time)
         if verdict is not Verdict.ACCEPTED:
             return CommandResult(verdict)

@@ -11,7 +11,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
-from twbr_common.guard import InputGuard, Verdict
+from twbr_common.guard import POSITION_LIMIT, DropReport, InputGuard
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, run_node
@@ -43,7 +43,8 @@ class WorldNode(Node):
         self.frame = cfg["odom_frame"]
         self.sim_time = bool(self.get_parameter("use_sim_time").value)
         self._t0: float | None = None
-        self._odom_guard = InputGuard(cfg["odom_timeout"])
+        self._odom_guard = InputGuard(cfg["odom_timeout"], limit=POSITION_LIMIT)
+        self.drops = DropReport(self.get_logger().warning)
         self._robot_xy: tuple[float, float] | None = None
         self._marker_due = Decimator(cfg["marker_rate"])
         self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
@@ -69,11 +70,8 @@ class WorldNode(Node):
 
     def _on_odom(self, msg: Odometry) -> None:
         p = msg.pose.pose.position
-        verdict = self._odom_guard.offer(stamp_seconds(msg.header.stamp), (p.x, p.y), self._now())
-        if verdict is Verdict.ACCEPTED:
+        if self.drops.admit(self._odom_guard, "odom", stamp_seconds(msg.header.stamp), (p.x, p.y), self._now()):
             self._robot_xy = (p.x, p.y)
-        else:
-            self.get_logger().warning(f"dropped odom ({verdict.value})", throttle_duration_sec=1.0)
 
     def _tick(self) -> None:
         t = self._world_time()

@@ -1,0 +1,182 @@
+"""Faults the graph survives, through the real processes: garbage on every input, a killed planner, a
+killed controller. Runs use a short course (test/scenarios/fault_course.yaml, about 22 s of sim time)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from twbr_common.processes import NodeProcess
+from twbr_msgs.msg import ControllerState, SimStatus, WorldStatus
+from twbr_sim.scenario import load_scenario
+
+pytestmark = pytest.mark.e2e
+HERE = Path(__file__).parent
+COURSE = HERE / "scenarios" / "fault_course.yaml"
+INJECTOR = HERE / "fault_injector.py"
+RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+SIM_PARAMS = ("robot.yaml", "sim.yaml")
+
+
+def course_on_the_cores() -> dict:
+    """The course run headless by the same cores, without DDS: what an undisturbed run gives."""
+    from twbr_runner.closed_loop import planner_reference, run_closed_loop
+
+    scenario = load_scenario(COURSE)
+    plan = planner_reference()
+    assessments = []
+
+    def reference(t, sim):
+        assessments.append((t, sim.assess()))
+        return plan(t, sim)
+
+    trace = run_closed_loop(scenario.duration, reference, scenario=scenario, seed=scenario.seed)
+    reached = [t for t, a in assessments if a.target_reached]
+    return {"time_to_reach_s": reached[0], "min_clearance_m": min(a.clearance for _, a in assessments),
+            "pitch_min_rad": float(trace["pitch"].min()), "pitch_max_rad": float(trace["pitch"].max())}
+
+
+def injector(env: dict[str, str], log_dir: Path, *params: str) -> NodeProcess:
+    argv = [sys.executable, str(INJECTOR), "--ros-args", *[a for p in params for a in ("-p", p)]]
+    return NodeProcess(argv, env, log_dir, "injector")
+
+
+def injected_counts(proc: NodeProcess) -> dict[str, int]:
+    assert proc.stop(timeout=10) == 0, proc.output
+    return json.loads(proc.output.strip().splitlines()[0])
+
+
+def drop_warnings(log: str, stream: str) -> list[str]:
+    return re.findall(rf"dropped {stream}: [^\n]*", log)
+
+
+def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ros_env):
+    garbage = injector(ros_env, tmp_path, "use_sim_time:=true")
+    started = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
+         "--no-figures"], env=ros_env, capture_output=True, text=True, timeout=300)
+    wall = time.monotonic() - started
+    sent = injected_counts(garbage)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    m = json.loads((run_dir / "metrics.json").read_text())
+
+    # Every input of every node in the graph got every kind of garbage while the robot drove.
+    topics = ("odom", "imu", "cmd_vel", "wheel_torque_cmd", "target", "obstacles", "planner_state")
+    kinds = ("nan", "inf", "absurd", "unstamped", "out_of_order")
+    for topic in topics:
+        for kind in kinds[:3] if topic == "cmd_vel" else kinds:
+            assert sent.get(f"{topic}:{kind}", 0) >= 5, sent
+
+    # Each node dropped its streams' garbage with a warning, at most one per stream per second.
+    logs = {name: (run_dir / "logs" / f"{name}.err").read_text() for name in ("sim", "controller", "planner")}
+    streams = {"sim": ("wheel_torque_cmd",), "controller": ("odom", "imu", "cmd_vel"),
+               "planner": ("odom", "target", "obstacles")}
+    for name, names in streams.items():
+        for stream in names:
+            warnings = drop_warnings(logs[name], stream)
+            assert warnings, (name, stream, logs[name][-3000:])
+            assert len(warnings) <= wall + 1, (name, stream, len(warnings), wall)
+    reasons = " ".join(w for name, names in streams.items() for s in names for w in drop_warnings(logs[name], s))
+    for reason in ("non-finite value", "absurdly large value", "no stamp"):
+        assert reason in reasons, reason
+    assert "older than" in reasons  # out of order, or already stale on arrival at a short timeout
+    assert m["commands_rejected"] >= 10  # the simulator's count of refused torque commands
+    assert all(m["messages_refused"].get(t, 0) > 0 for t in ("/odom", "/target", "/obstacles", "/planner_state"))
+
+    # The run is the undisturbed one: the cores' run of the same course, within the graph's own spread.
+    core = course_on_the_cores()
+    assert m["reached"] and m["collisions"] == 0 and not m["fallen"], m
+    assert m["lockstep_timeouts"] == 0 and m["cmd_vel_stale_samples"] == 0
+    assert m["time_to_reach_s"] == pytest.approx(core["time_to_reach_s"], abs=1.0)
+    assert m["min_clearance_m"] == pytest.approx(core["min_clearance_m"], abs=0.05)
+    assert m["pitch_min_rad"] == pytest.approx(core["pitch_min_rad"], abs=0.002)
+    assert m["pitch_max_rad"] == pytest.approx(core["pitch_max_rad"], abs=0.002)
+    (run_dir / "fault_comparison.json").write_text(json.dumps({"core": core, "sent": sent}, indent=1))
+
+
+def _t(msg) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def test_planner_killed_the_robot_stops_balanced_and_a_restarted_planner_reaches_the_target(launch, ros):
+    states: list[ControllerState] = []
+    world: list[WorldStatus] = []
+    ros.node.create_subscription(ControllerState, "controller_state", states.append, RELIABLE)
+    ros.node.create_subscription(WorldStatus, "world_status", world.append, RELIABLE)
+    launch("twbr_control", "controller_node", params=("controller.yaml",))
+    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    sim = launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", "-p", "duration:=120.0",
+                 "-p", "wait_for_subscribers:=2", params=SIM_PARAMS)
+    assert ros.spin_until(lambda: states and states[-1].velocity > 0.25, 60.0), sim.output
+
+    os.killpg(planner.proc.pid, signal.SIGKILL)  # no goodbye: cmd_vel just stops
+    killed_at = _t(states[-1])
+    timeout = 0.5  # cmd_vel_timeout of config/controller.yaml
+    assert ros.spin_until(lambda: _t(states[-1]) > killed_at + timeout + 4.0, 60.0)
+    after = [s for s in states if _t(s) > killed_at + timeout + 0.1]
+    assert all(s.cmd_vel_stale and s.velocity_ref == 0.0 and s.yaw_rate_ref == 0.0 for s in after)
+    last_second = [s for s in after if _t(s) > _t(after[-1]) - 1.0]
+    assert max(abs(s.velocity) for s in last_second) < 0.02  # stopped
+    assert max(abs(s.pitch) for s in last_second) < 0.01  # and balanced
+    assert not any(s.fallen for s in states)
+
+    stopping = [s for s in states if _t(s) > killed_at]
+    still = next(_t(s) for s in stopping if all(abs(x.velocity) < 0.02 for x in stopping if _t(x) >= _t(s)))
+    print(f"planner killed at t = {killed_at:.2f} s ({stopping[0].velocity:.3f} m/s): stopped (|v| < 0.02 m/s)"
+          f" at t = {still:.2f} s, |pitch| <= {max(abs(s.pitch) for s in stopping):.4f} rad while stopping")
+    restarted_at = _t(states[-1])
+    launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    assert ros.spin_until(lambda: not sim.running, 120.0)  # the scenario ends on the target reached
+    assert sim.wait(timeout=1) == 0, sim.output
+    ros.spin_for(0.5)
+    assert any(w.target_reached for w in world) and world[-1].collision_count == 0
+    assert not any(s.fallen for s in states)
+    assert not states[-1].cmd_vel_stale
+    reached = next(_t(w) for w in world if w.target_reached)
+    print(f"planner restarted at t = {restarted_at:.2f} s; target reached at t = {reached:.2f} s")
+
+
+def test_controller_killed_the_robot_side_zeroes_the_torque_reports_it_and_nothing_hangs(launch, ros):
+    from geometry_msgs.msg import Twist
+
+    status: list[SimStatus] = []
+    cmd_vel: list[Twist] = []
+    ros.node.create_subscription(SimStatus, "sim_status", status.append, RELIABLE)
+    ros.node.create_subscription(Twist, "cmd_vel", cmd_vel.append, RELIABLE)
+    controller = launch("twbr_control", "controller_node", params=("controller.yaml",))
+    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    sim = launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", "-p", "mode:=realtime",
+                 "-p", "wait_for_subscribers:=2", params=SIM_PARAMS)
+    assert ros.spin_until(lambda: status and _t(status[-1]) > 2.0, 60.0), sim.output
+    assert not status[-1].command_stale and status[-1].commands_received > 100
+
+    os.killpg(controller.proc.pid, signal.SIGKILL)
+    killed = time.monotonic()
+    assert ros.spin_until(lambda: status[-1].command_stale, 5.0), sim.output
+    noticed = time.monotonic() - killed
+    assert noticed < 0.5  # command_timeout 0.1 s of sim time, on a realtime simulator
+    received = status[-1].commands_received
+    assert ros.spin_until(lambda: status[-1].fallen, 10.0)  # zero torque: a balancing robot falls over
+    stale_at = next(_t(m) for m in status if m.command_stale and _t(m) > 1.0)
+    print(f"controller killed: command_stale after {noticed * 1e3:.0f} ms wall (t = {stale_at:.3f} s),"
+          f" fallen at t = {_t(next(m for m in status if m.fallen)):.3f} s")
+    n_cmd, steps = len(cmd_vel), status[-1].steps
+    ros.spin_for(2.0)
+    assert status[-1].commands_received == received  # nothing drove the wheels since
+    assert status[-1].steps > steps and len(cmd_vel) > n_cmd  # the simulator and the planner still run
+    assert "zero torque" in sim.stderr  # and the simulator said why
+    for proc in (sim, planner):
+        started = time.monotonic()
+        assert proc.stop(timeout=10) == 0, proc.output
+        assert time.monotonic() - started < 5.0
