@@ -1,4 +1,4 @@
-"""The paper's three navigation scenarios through the real nodes and the runner, over seven seeds each.
+"""The paper's three navigation scenarios through the real nodes and the runner, over several seeds each.
 
 Each run: recorder, controller_node, planner_node and sim_node as processes (lockstep), outcomes from the
 recorded bag (metrics.json): the target is reached (a moving one caught within the capture radius) within
@@ -63,9 +63,10 @@ def test_default_seed_reaches_the_target_and_draws_the_papers_figures(tmp_path, 
 
 
 # The static scenario has no random element (the seed draws the target's turns and IMU noise, and it has
-# neither): its other seeds must give the same outcome, which test_static_outcome_does_not_depend_on_the_seed
-# shows exactly on the cores.
-SEEDED_RUNS = [(sc, seed) for sc in SCENARIOS for seed in OTHER_SEEDS]
+# neither): seeds 1-5 give the very run of seed 7, which test_static_outcome_does_not_depend_on_the_seed
+# shows exactly on the cores. End to end, one other seed stands for them: four more identical runs through
+# the graph cost 2.5 minutes of the suite and test nothing a seed can change.
+SEEDED_RUNS = [(sc, seed) for sc in ("dynamic_target", "dynamic_obstacles") for seed in OTHER_SEEDS] + [("static", 3)]
 
 
 @pytest.mark.parametrize(("scenario", "seed"), SEEDED_RUNS)

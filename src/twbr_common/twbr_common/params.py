@@ -48,8 +48,9 @@ class ParamSpec:
             return "a string"
         if self.kind is list:
             return "a list of numbers"
-        lo = "-inf" if self.low is None else f"{self.low:g}"
-        hi = "inf" if self.high is None else f"{self.high:g}"
+        fmt = "d" if self.kind is int else "g"  # an int's bound in full: 2147483647, not 2.14748e+09
+        lo = "-inf" if self.low is None else format(self.low, fmt)
+        hi = "inf" if self.high is None else format(self.high, fmt)
         left = "(" if (self.low_open or self.low is None) else "["
         right = ")" if (self.high_open or self.high is None) else "]"
         unit = f" {self.unit}" if self.unit else ""
