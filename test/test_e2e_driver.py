@@ -14,6 +14,7 @@ from twbr_msgs.msg import WorldStatus
 
 pytestmark = pytest.mark.e2e
 FAKE_DRIVER = Path(__file__).with_name("fake_driver.py")
+INJECTOR = Path(__file__).with_name("fault_injector.py")
 
 
 def check_driver(env: dict[str, str], *args: str) -> subprocess.CompletedProcess:
@@ -68,9 +69,17 @@ def test_another_driver_passes_and_world_node_drives_it_to_a_target(launch, ros,
         launch("twbr_control", "controller_node", *wall, params=("controller.yaml",))
         launch("twbr_planner", "planner_node", *wall, params=("planner.yaml",))
         world = launch("twbr_sim", "world_node", *wall, "-p", f"scenario:={scenario}", params=("world.yaml",))
+        # Garbage on the inputs of world_node, planner and controller, stamped on wall time as theirs are
+        # (not on wheel_torque_cmd: the test driver is not ours to harden).
+        garbage = NodeProcess([sys.executable, str(INJECTOR), "--ros-args", *wall,
+                               "-p", "topics:=['odom', 'imu', 'cmd_vel', 'target', 'obstacles']"],
+                              ros_env, tmp_path, "injector")
         status: list[WorldStatus] = []
         ros.node.create_subscription(WorldStatus, "world_status", status.append, 10)
         assert ros.spin_until(lambda: any(s.target_reached for s in status), 45.0), world.output + driver.output
         assert not any(s.collision for s in status)
+        assert garbage.stop() == 0 and "odom:nan" in garbage.output
+        assert "dropped odom: non-finite value" in world.stderr
+        assert "dropped odom: no stamp" in world.stderr or "dropped odom: stamp older" in world.stderr
     finally:
         driver.stop()
