@@ -1,9 +1,11 @@
 # twbr: `make demo` runs the main job, `make test` runs every test (both set up everything first).
 SHELL := /bin/bash
 SCENARIO ?= dynamic_obstacles
+N ?= 100
+PERTURB ?= 0
 RUN := tools/run.sh
 
-.PHONY: all setup test unit e2e demo bench lint clean
+.PHONY: all setup test unit e2e demo montecarlo bench lint clean
 all: setup
 
 setup:
@@ -20,6 +22,9 @@ e2e: setup
 
 demo: setup
 	@$(RUN) python -m twbr_runner.runner $(SCENARIO)
+
+montecarlo: setup
+	@$(RUN) python -m twbr_runner.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
 
 bench: setup
 	@$(RUN) python benchmarks/bench_dynamics.py

@@ -21,6 +21,7 @@ setup(
             "recorder = twbr_runner.recorder:main",
             "run_scenario = twbr_runner.runner:main",
             "check_driver = twbr_runner.check_driver:main",
+            "montecarlo = twbr_runner.montecarlo:main",
         ],
     },
 )

@@ -55,8 +55,10 @@ def run_closed_loop(
     scenario: Scenario | None = None,
     seed: int = 0,
     stop_on_fall: bool = True,
+    stop: Callable[[Simulator], bool] | None = None,
 ) -> Trace:
-    """Run the cores for `duration` seconds of sim time; settings default to the parameter tables."""
+    """Run the cores for `duration` seconds of sim time, or until `stop(simulator)` (checked after each
+    control step, as a simulator ending a run on its target would); settings default to the tables."""
     control_cfg = check_controller(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})}))
     sim_cfg = validate_all(SIM_SPECS, {**defaults(SIM_SPECS), **(sim or {})})
     sim_cfg["publish_rate"] = control_cfg["rate"]
@@ -76,7 +78,7 @@ def run_closed_loop(
         rows.append(out)
         path[k, :2] = s[dyn.S_XC], s[dyn.S_YC]
         path[k, 2:] = simulator.wheel_torques()
-        if k == n - 1 or (stop_on_fall and simulator.fallen):
+        if k == n - 1 or (stop_on_fall and simulator.fallen) or (stop is not None and stop(simulator)):
             path = path[: k + 1]
             break
         simulator.offer_command(t, out.left_torque, out.right_torque)

@@ -1,0 +1,99 @@
+"""The Monte Carlo study: rows per seed, the same with one process or two, bad input refused, an
+interrupted study keeps what finished."""
+
+import csv
+import json
+
+import pytest
+
+from twbr_common.params import ConfigError
+from twbr_runner import montecarlo as mc
+
+COURSE = """name: mc_course
+duration: 60.0
+seed: 3
+end_on_target: true
+robot: {x: 0.0, y: 0.0, yaw: 0.0}
+target: {position: [2.0, 0.5], heading: 1.0, speed: 0.03, max_yaw_rate: 1.0, turn_interval: 1.0, capture_radius: 0.5}
+obstacles:
+  - {id: 1, position: [1.5, -1.5], radius: 0.3, speed: 0.15, heading: pi/2}
+"""
+
+
+@pytest.fixture
+def course(tmp_path):
+    path = tmp_path / "mc_course.yaml"
+    path.write_text(COURSE)
+    return path
+
+
+def test_rows_do_not_depend_on_the_number_of_processes(course, tmp_path):
+    study = mc.Study(course, runs=3, perturbation=0.2, first_seed=2)
+    one = mc.run_study(study, tmp_path / "one", workers=1, progress=False)
+    two = mc.run_study(study, tmp_path / "two", workers=2, progress=False)
+    assert one == two
+    assert [r["seed"] for r in one] == [2, 3, 4]
+    assert all(r["reached"] and not r["fallen"] and r["collisions"] == 0 for r in one)
+    assert len({r["time_to_reach_s"] for r in one}) > 1  # seeds move the target and the robot differently
+    with (tmp_path / "one" / "runs.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["seed"]) for r in rows] == [2, 3, 4] and set(rows[0]) == set(mc.COLUMNS)
+
+
+def test_perturbation_factors_stay_in_range_and_follow_the_seed():
+    assert set(mc.perturbation_factors(4, 0.0).values()) == {1.0}
+    a, b = mc.perturbation_factors(4, 0.2), mc.perturbation_factors(4, 0.2)
+    assert a == b and a != mc.perturbation_factors(5, 0.2)
+    assert all(0.8 <= f <= 1.2 for f in a.values()) and set(a) == set(mc.PERTURBED)
+
+
+def test_a_perturbed_robot_is_really_another_robot(course):
+    nominal = mc.run_one(str(course), 5, 0.0)
+    perturbed = mc.run_one(str(course), 5, 0.3)
+    assert perturbed["body_mass_factor"] != 1.0
+    assert perturbed["pitch_max_rad"] != nominal["pitch_max_rad"]
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["-n", "0"], "invalid number of runs 0: must be at least 1"),
+    (["-n", "-3"], "invalid number of runs -3"),
+    (["--perturb", "1.0"], "invalid perturbation 1: must be in [0, 1)"),
+    (["--perturb", "-0.1"], "invalid perturbation -0.1"),
+    (["--workers", "0"], "invalid --workers 0"),
+])
+def test_bad_input_is_refused_with_a_clear_message(course, tmp_path, capsys, args, message):
+    assert mc.main([str(course), "--out", str(tmp_path / "out"), *args]) == mc.EXIT_BAD_INPUT
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()  # nothing started, nothing written
+
+
+def test_an_unknown_scenario_is_refused_naming_the_known_ones(tmp_path, capsys):
+    assert mc.main(["nowhere", "--out", str(tmp_path)]) == mc.EXIT_BAD_INPUT
+    assert "'nowhere'" in capsys.readouterr().err
+    with pytest.raises(ConfigError):
+        mc.Study(tmp_path / "x.yaml", runs=0)
+
+
+def test_an_interrupted_study_keeps_the_finished_rows(course, tmp_path, monkeypatch, capsys):
+    real = mc.run_one
+
+    def run_one(path, seed, perturbation):
+        if seed == 3:
+            raise KeyboardInterrupt
+        return real(path, seed, perturbation)
+
+    monkeypatch.setattr(mc, "run_one", run_one)
+    assert mc.main([str(course), "-n", "5", "--workers", "1", "--out", str(tmp_path / "out")]) == mc.EXIT_INTERRUPTED
+    (out,) = (tmp_path / "out").iterdir()
+    with (out / "runs.csv").open() as f:
+        assert [int(r["seed"]) for r in csv.DictReader(f)] == [1, 2]
+    assert "2 finished runs kept" in capsys.readouterr().err
+
+
+def test_a_study_writes_its_table_summary_and_figure(course, tmp_path):
+    assert mc.main([str(course), "-n", "2", "--workers", "1", "--out", str(tmp_path / "out")]) == 0
+    (out,) = (tmp_path / "out").iterdir()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["runs"] == 2 and summary["success_rate"] == 1.0 and summary["cores"] >= 1
+    assert summary["time_to_reach_s"]["min"] <= summary["time_to_reach_s"]["max"]
+    assert (out / "summary.png").stat().st_size > 10_000

@@ -1,0 +1,309 @@
+"""montecarlo: one scenario over many seeds, headless on the cores, optionally with perturbed robots.
+
+    python -m twbr_runner.montecarlo dynamic_obstacles -n 200 --perturb 0.2   # or: make montecarlo N=200
+
+Each run is the simulator, controller and planner cores in closed loop (twbr_runner.closed_loop), ended
+like the node graph ends it: on the target reached (end_on_target), a fall, or the scenario's duration.
+The world is assessed at the world rate, as sim_node does. With --perturb p every run draws, from its
+seed, a factor in [1 - p, 1 + p] for each of the body and wheel masses, the inertias and the motor
+constant. Runs spread over the machine's cores; each row is written to the CSV as it finishes, so an
+interrupted study keeps them. Writes <out>/<scenario>-<time>/runs.csv, summary.json and summary.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import signal
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twbr_common.params import ConfigError, defaults
+from twbr_sim.robot_params import ROBOT_SPECS
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
+
+PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "body_inertia_roll",
+             "body_inertia_pitch", "body_inertia_yaw", "motor_constant")
+COLUMNS = ("seed", "perturbation", "reached", "time_to_reach_s", "collisions", "min_clearance_m",
+           "pitch_min_rad", "pitch_max_rad", "fallen", "stuck_time_s", "sim_time_s",
+           *(f"{name}_factor" for name in PERTURBED))
+WORLD_RATE = 20.0  # [Hz] sim_node's default world_rate: collisions and clearance are sampled at it
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+
+@dataclass(frozen=True)
+class Study:
+    scenario: Path
+    runs: int
+    perturbation: float = 0.0
+    first_seed: int = 1
+
+    def __post_init__(self) -> None:
+        if self.runs < 1:
+            raise ConfigError(f"invalid number of runs {self.runs}: must be at least 1")
+        if not 0.0 <= self.perturbation < 1.0:
+            raise ConfigError(f"invalid perturbation {self.perturbation:g}: must be in [0, 1) (0.2 means ±20 %)")
+        if self.first_seed < 0:
+            raise ConfigError(f"invalid first seed {self.first_seed}: must be >= 0")
+
+    @property
+    def seeds(self) -> range:
+        return range(self.first_seed, self.first_seed + self.runs)
+
+
+def perturbation_factors(seed: int, fraction: float) -> dict[str, float]:
+    """The run's factors on PERTURBED, drawn from its seed alone (the same seed, the same robot)."""
+    if fraction == 0.0:
+        return dict.fromkeys(PERTURBED, 1.0)
+    rng = np.random.default_rng([seed, 0x6D63])  # a stream apart from the world's, which uses the seed too
+    return {name: float(rng.uniform(1.0 - fraction, 1.0 + fraction)) for name in PERTURBED}
+
+
+def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any]:
+    """One run of the scenario on the cores: a CSV row."""
+    from twbr_planner.apf import Mode
+    from twbr_runner.closed_loop import planner_reference, run_closed_loop
+
+    scenario = load_scenario(Path(scenario_path))
+    factors = perturbation_factors(seed, perturbation)
+    nominal = defaults(ROBOT_SPECS)
+    robot = {name: nominal[name] * factors[name] for name in PERTURBED}
+    planner_log: list = []
+    plan = planner_reference(log=planner_log)
+    world = {"next": 0.0, "reached_at": None, "min_clearance": math.inf, "collisions": 0}
+
+    def reference(t: float, sim) -> tuple[float, float]:
+        if t + 1e-9 >= world["next"]:
+            world["next"] = t + 1.0 / WORLD_RATE
+            a = sim.assess()
+            world["min_clearance"] = min(world["min_clearance"], a.clearance)
+            world["collisions"] = sim.world.collision_count
+            if a.target_reached and world["reached_at"] is None:
+                world["reached_at"] = t
+        return plan(t, sim)
+
+    def ended(_sim) -> bool:
+        return scenario.end_on_target and world["reached_at"] is not None
+
+    trace = run_closed_loop(scenario.duration, reference, robot=robot, scenario=scenario, seed=seed, stop=ended)
+    stuck = sum(1 for out in planner_log if out.mode is Mode.STUCK) / 20.0  # planner_reference plans at 20 Hz
+    pitch = trace["pitch"]
+    row = {
+        "seed": seed,
+        "perturbation": perturbation,
+        "reached": world["reached_at"] is not None,
+        "time_to_reach_s": world["reached_at"],
+        "collisions": world["collisions"],
+        "min_clearance_m": world["min_clearance"] if math.isfinite(world["min_clearance"]) else None,
+        "pitch_min_rad": float(pitch.min()),
+        "pitch_max_rad": float(pitch.max()),
+        "fallen": bool(trace.fallen),
+        "stuck_time_s": stuck,
+        "sim_time_s": float(trace.t[-1]),
+    }
+    row.update({f"{name}_factor": factors[name] for name in PERTURBED})
+    return row
+
+
+
+def _format(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def _ignore_interrupts() -> None:
+    """Workers leave Ctrl-C to the parent, which stops the study and keeps the finished rows."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _interrupt(signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def _run_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
+    """Rows as runs finish, at most `workers` at a time (in this process when workers == 1)."""
+    path = str(study.scenario)
+    if workers == 1:
+        for seed in study.seeds:
+            yield run_one(path, seed, study.perturbation)
+        return
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_interrupts)
+    pending: set[Future] = set()
+    seeds = iter(study.seeds)
+    try:
+        while True:
+            while len(pending) < 2 * workers:  # a short queue: an interrupt leaves little to cancel
+                seed = next(seeds, None)
+                if seed is None:
+                    break
+                pending.add(pool.submit(run_one, path, seed, study.perturbation))
+            if not pending:
+                return
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+def run_study(study: Study, out_dir: Path, workers: int, progress: bool = True) -> list[dict[str, Any]]:
+    """Run every seed, appending each finished row to out_dir/runs.csv; returns the rows by seed."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows: list[dict[str, Any]] = []
+    started = time.monotonic()
+    with (out_dir / "runs.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        f.flush()
+        for row in _run_rows(study, workers):
+            writer.writerow({k: _format(v) for k, v in row.items()})
+            f.flush()  # a finished run is kept, whatever stops the study
+            rows.append(row)
+            if progress:
+                _progress(len(rows), study.runs, time.monotonic() - started, rows)
+    if progress:
+        print(file=sys.stderr)
+    rows.sort(key=lambda r: r["seed"])
+    _write_csv(out_dir / "runs.csv", rows)  # the whole study, by seed
+    return rows
+
+
+def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows({k: _format(v) for k, v in row.items()} for row in rows)
+
+
+def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]]) -> None:
+    width = 30
+    filled = round(width * done / total)
+    ok = sum(1 for r in rows if _success(r))
+    eta = elapsed / done * (total - done)
+    print(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs, {ok} succeeded,"
+          f" {elapsed:.0f} s, about {eta:.0f} s left ", end="", file=sys.stderr, flush=True)
+
+
+def _success(row: dict[str, Any]) -> bool:
+    return bool(row["reached"]) and not row["fallen"] and not row["collisions"]
+
+
+def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, workers: int) -> dict[str, Any]:
+    def stats(values: Iterable[float]) -> dict[str, float] | None:
+        a = np.array([v for v in values if v is not None], dtype=float)
+        if not len(a):
+            return None
+        return {"min": float(a.min()), "median": float(np.median(a)), "p95": float(np.percentile(a, 95)),
+                "max": float(a.max())}
+
+    n = len(rows)
+    return {
+        "scenario": study.scenario.stem,
+        "runs": n,
+        "runs_asked": study.runs,
+        "first_seed": study.first_seed,
+        "perturbation": study.perturbation,
+        "success_rate": sum(_success(r) for r in rows) / n if n else None,
+        "reached": sum(bool(r["reached"]) for r in rows),
+        "collided": sum(bool(r["collisions"]) for r in rows),
+        "fallen": sum(bool(r["fallen"]) for r in rows),
+        "stuck": sum(r["stuck_time_s"] > 0 for r in rows),
+        "time_to_reach_s": stats(r["time_to_reach_s"] for r in rows),
+        "min_clearance_m": stats(r["min_clearance_m"] for r in rows),
+        "pitch_abs_max_rad": stats(max(abs(r["pitch_min_rad"]), abs(r["pitch_max_rad"])) for r in rows),
+        "wall_time_s": wall_s,
+        "workers": workers,
+        "cores": os.cpu_count(),
+    }
+
+
+def summary_figure(rows: list[dict[str, Any]], summary: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    n = summary["runs"]
+    counts = [summary["reached"], summary["collided"], summary["fallen"], summary["stuck"]]
+    axes[0].bar(["reached", "collided", "fallen", "stuck"], [100.0 * c / n for c in counts],
+                color=["tab:green", "tab:red", "tab:red", "tab:orange"])
+    axes[0].set_ylabel("% of runs")
+    axes[0].set_ylim(0, 105)
+    axes[0].set_title(f"success {100.0 * summary['success_rate']:.1f} % of {n} runs")
+    reach = [r["time_to_reach_s"] for r in rows if r["time_to_reach_s"] is not None]
+    axes[1].hist(reach, bins=30, color="tab:blue")
+    axes[1].set_xlabel("time to reach [s]")
+    axes[1].set_ylabel("runs")
+    clearance = [r["min_clearance_m"] for r in rows if r["min_clearance_m"] is not None]
+    axes[2].hist(clearance, bins=30, color="tab:purple")
+    axes[2].axvline(0.0, color="tab:red", lw=1)
+    axes[2].set_xlabel("min clearance to an obstacle [m]")
+    pert = summary["perturbation"]
+    fig.suptitle(f"{summary['scenario']}: seeds {summary['first_seed']}..{summary['first_seed'] + n - 1}"
+                 + (f", robot parameters ±{100 * pert:g} %" if pert else ", nominal robot"))
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="montecarlo", description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenario", help="a scenario name (config/scenarios) or file")
+    ap.add_argument("-n", "--runs", type=int, default=100, help="how many seeds (default 100)")
+    ap.add_argument("--perturb", type=float, default=0.0,
+                    help="perturb masses, inertias and the motor constant by up to this fraction (0.2: ±20 %%)")
+    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes (default: the cores)")
+    ap.add_argument("--out", type=Path, default=Path("runs") / "montecarlo")
+    ap.add_argument("--no-figure", action="store_true")
+    opts = ap.parse_args(argv)
+    try:
+        study = Study(find_scenario(opts.scenario), opts.runs, opts.perturb, opts.first_seed)
+        if opts.workers < 1:
+            raise ConfigError(f"invalid --workers {opts.workers}: must be at least 1")
+    except ConfigError as e:
+        print(f"montecarlo: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    out_dir = opts.out / f"{study.scenario.stem}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+    print(f"montecarlo: {study.runs} runs of {study.scenario.stem} (seeds {study.seeds.start}.."
+          f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}) on {opts.workers} processes -> {out_dir}",
+          flush=True)
+    started = time.monotonic()
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        rows = run_study(study, out_dir, opts.workers)
+    except KeyboardInterrupt:
+        kept = sum(1 for _ in (out_dir / "runs.csv").open()) - 1
+        print(f"\nmontecarlo: interrupted; {kept} finished runs kept in {out_dir / 'runs.csv'}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    summary = summarise(rows, study, time.monotonic() - started, opts.workers)
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if not opts.no_figure:
+        summary_figure(rows, summary, out_dir / "summary.png")
+    t = summary["time_to_reach_s"]
+    print(f"montecarlo: success {100.0 * summary['success_rate']:.1f} % ({summary['reached']} reached,"
+          f" {summary['collided']} collided, {summary['fallen']} fell, {summary['stuck']} with time stuck);"
+          + (f" time to reach median {t['median']:.1f} s, p95 {t['p95']:.1f} s;" if t else "")
+          + f" {summary['runs']} runs in {summary['wall_time_s']:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
