@@ -29,20 +29,9 @@ SIM_PARAMS = ("robot.yaml", "sim.yaml")
 
 def course_on_the_cores() -> dict:
     """The course run headless by the same cores, without DDS: what an undisturbed run gives."""
-    from twbr_runner.closed_loop import planner_reference, run_closed_loop
+    from twbr_runner.montecarlo import run_one
 
-    scenario = load_scenario(COURSE)
-    plan = planner_reference()
-    assessments = []
-
-    def reference(t, sim):
-        assessments.append((t, sim.assess()))
-        return plan(t, sim)
-
-    trace = run_closed_loop(scenario.duration, reference, scenario=scenario, seed=scenario.seed)
-    reached = [t for t, a in assessments if a.target_reached]
-    return {"time_to_reach_s": reached[0], "min_clearance_m": min(a.clearance for _, a in assessments),
-            "pitch_min_rad": float(trace["pitch"].min()), "pitch_max_rad": float(trace["pitch"].max())}
+    return run_one(str(COURSE), load_scenario(COURSE).seed, perturbation=0.0)
 
 
 def injector(env: dict[str, str], log_dir: Path, *params: str) -> NodeProcess:

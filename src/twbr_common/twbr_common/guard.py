@@ -103,7 +103,6 @@ class DropReport:
         self.period = period
         self._last: dict[str, float] = {}
         self._pending: Counter[str] = Counter()
-        self.total: Counter[str] = Counter()
 
     def admit(self, guard: InputGuard, stream: str, stamp: float, values: Iterable[float], now: float) -> bool:
         """Offer a message to its stream's guard; warn (throttled) when it is refused."""
@@ -115,7 +114,6 @@ class DropReport:
 
     def dropped(self, stream: str, reason: str) -> None:
         self._pending[stream] += 1
-        self.total[stream] += 1
         now = time.monotonic()
         if now - self._last.get(stream, -math.inf) >= self.period:
             self._last[stream] = now

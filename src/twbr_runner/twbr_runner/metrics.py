@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.guard import POSITION_LIMIT, InputGuard, Verdict
 from twbr_runner.response import settle_time, step_response
 
 PITCH_BAND = 0.005  # rad: "theta returns within +-0.005 rad of its equilibrium"
@@ -71,31 +72,30 @@ _VALUES: dict[str, Any] = {
     "/world_status": lambda m: (m.target_distance,),
     "/sim_status": lambda m: (m.pitch,),
 }
-_ABSURD = 1e5  # [SI] past any value a run of this robot produces: garbage, as the nodes' guards judge it
 
 
 def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int], keep_last: bool = False) -> list[Any]:
     """The messages a node would have accepted, in stamp order, one per stamp.
 
     A bag records everything on a topic, including what another publisher injected (NaN, absurd values, no
-    stamp, out of order); the metrics are of the run, so they read only what passes the nodes' own rules.
+    stamp, out of order); the metrics are of the run, so they read only what passes the nodes' own guard.
+    A bag has no node clock, so only values and order are judged (an unstamped message comes out of order).
     A lockstep simulator may re-offer its first state: equal stamps keep the first (statuses: the last, which
     carries the final counters).
     """
     values = _VALUES.get(topic, lambda m: ())
+    guard = InputGuard(math.inf, require_stamp=False, limit=POSITION_LIMIT)  # the widest of the nodes' limits
     by_stamp: dict[float, Any] = {}
-    newest = -math.inf
     for _, msg in sorted(items, key=lambda item: item[0]):
         t = stamp_of(msg)
-        numbers = [v for v in values(msg) if not isinstance(v, bool)]
-        if t < newest or not all(math.isfinite(v) and abs(v) <= _ABSURD for v in numbers):
-            refused[topic] = refused.get(topic, 0) + 1
+        if guard.offer(t, values(msg), now=math.inf) is not Verdict.ACCEPTED:
             continue
-        newest = t
         if keep_last:
             by_stamp[t] = msg
         else:
             by_stamp.setdefault(t, msg)
+    if guard.rejected_total:
+        refused[topic] = guard.rejected_total
     return [by_stamp[t] for t in sorted(by_stamp)]
 
 

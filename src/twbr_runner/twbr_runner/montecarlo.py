@@ -40,6 +40,7 @@ COLUMNS = ("seed", "perturbation", "reached", "time_to_reach_s", "collisions", "
            "pitch_min_rad", "pitch_max_rad", "fallen", "stuck_time_s", "sim_time_s",
            *(f"{name}_factor" for name in PERTURBED))
 WORLD_RATE = 20.0  # [Hz] sim_node's default world_rate: collisions and clearance are sampled at it
+PLANNER_RATE = 20.0  # [Hz] planner_node's default rate
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
@@ -82,7 +83,7 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
     nominal = defaults(ROBOT_SPECS)
     robot = {name: nominal[name] * factors[name] for name in PERTURBED}
     planner_log: list = []
-    plan = planner_reference(log=planner_log)
+    plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
     world = {"next": 0.0, "reached_at": None, "min_clearance": math.inf, "collisions": 0}
 
     def reference(t: float, sim) -> tuple[float, float]:
@@ -99,7 +100,7 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
         return scenario.end_on_target and world["reached_at"] is not None
 
     trace = run_closed_loop(scenario.duration, reference, robot=robot, scenario=scenario, seed=seed, stop=ended)
-    stuck = sum(1 for out in planner_log if out.mode is Mode.STUCK) / 20.0  # planner_reference plans at 20 Hz
+    stuck = sum(1 for out in planner_log if out.mode is Mode.STUCK) / PLANNER_RATE
     pitch = trace["pitch"]
     row = {
         "seed": seed,
@@ -119,12 +120,13 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
 
 
 
-def _format(value: Any) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    return str(value)
+def _csv_row(row: dict[str, Any]) -> dict[str, str]:
+    def text(value: Any) -> str:
+        if value is None:
+            return ""
+        return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+    return {k: text(v) for k, v in row.items()}
 
 
 def _ignore_interrupts() -> None:
@@ -172,7 +174,7 @@ def run_study(study: Study, out_dir: Path, workers: int, progress: bool = True) 
         writer.writeheader()
         f.flush()
         for row in _run_rows(study, workers):
-            writer.writerow({k: _format(v) for k, v in row.items()})
+            writer.writerow(_csv_row(row))
             f.flush()  # a finished run is kept, whatever stops the study
             rows.append(row)
             if progress:
@@ -188,7 +190,7 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
     with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
-        writer.writerows({k: _format(v) for k, v in row.items()} for row in rows)
+        writer.writerows(_csv_row(row) for row in rows)
 
 
 def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]]) -> None:

@@ -108,10 +108,11 @@ class SimNode(Node):
     # --- inputs -------------------------------------------------------------------------------
     def _on_command(self, msg: WheelTorques) -> None:
         self._commands_received += 1
-        result = self.sim.offer_command(stamp_seconds(msg.header.stamp), msg.left, msg.right)
+        stamp = stamp_seconds(msg.header.stamp)
+        result = self.sim.offer_command(stamp, msg.left, msg.right)
         if result.verdict is not Verdict.ACCEPTED:
             self.drops.dropped("wheel_torque_cmd", f"{result.verdict.value} (left={msg.left:.6g},"
-                                                   f" right={msg.right:.6g}, stamp {stamp_seconds(msg.header.stamp):.3f} s)")
+                                                   f" right={msg.right:.6g}, stamp {stamp:.3f} s)")
             return
         if result.saturated:
             self.get_logger().warning(
