@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 
+from twbr_common.jit import kernel
+
+TWO_PI = 2.0 * math.pi
+
+
+@kernel
 def wrap_angle(angle: float) -> float:
-    """Wrap to (-pi, pi]."""
-    wrapped = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if wrapped == -math.pi else wrapped
+    """Wrap to (-pi, pi] (compiled: the planner's kernels call it)."""
+    wrapped = np.fmod(angle, TWO_PI)  # exact, in (-2 pi, 2 pi)
+    if wrapped > math.pi:
+        wrapped -= TWO_PI
+    elif wrapped <= -math.pi:
+        wrapped += TWO_PI
+    return wrapped
 
 
 def quaternion_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:

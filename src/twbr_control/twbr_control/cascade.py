@@ -1,4 +1,4 @@
-"""The paper's cascaded controller (its Figure 3) as a plain-Python core.
+"""The paper's cascaded controller (its Figure 3) as a compiled kernel and a small class around it.
 
 velocity PID: v_ref - v -> pitch_ref (limited) ; pitch PID: pitch_ref - pitch -> common wheel torque ;
 yaw-rate PI: omega_ref - omega -> differential torque. Left = common - differential, right = common +
@@ -7,18 +7,38 @@ headroom the common part leaves. Signs: a forward lean (pitch > 0) is caught by 
 so the common torque is minus the pitch PID's output; to speed up, the robot must lean forward, so the
 velocity loop's output is the pitch reference itself (and the robot first rolls back: non-minimum phase).
 
-The sample time comes from the stamps of the states; the node, the headless closed loop and the tuner
-all call `compute` the same way.
+The sample time comes from the stamps of the states. `cascade_compute` is the one implementation: the
+node, the headless closed loop and the tuner call it through `CascadeController`, the batch engine calls
+it directly, on a settings vector (C_*), a memory vector (K_*) and an output vector (O_*) per robot.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from twbr_control.pid import Pid, PidGains
+import numpy as np
+
+from twbr_common.jit import kernel
+from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, PidGains, pid_reset, pid_update
+
+# Settings vector: the loop's scalars, then the three PIDs' gains (pid.G_* layout).
+C_PERIOD, C_MAX_V_REF, C_MAX_W_REF, C_PITCH_OFFSET, C_MAX_TORQUE, C_FALL_PITCH, C_MAX_GAP = range(7)
+C_VELOCITY = 7
+C_PITCH = C_VELOCITY + N_GAINS
+C_YAW_RATE = C_PITCH + N_GAINS
+N_SETTINGS = C_YAW_RATE + N_GAINS
+# Memory vector: the loop's state, then the three PIDs' memories (pid.M_* layout).
+K_LAST_STAMP, K_HAS_LAST, K_COMMON_SAT, K_DIFF_SAT, K_FALLEN, K_ENABLED = range(6)
+K_VELOCITY = 6
+K_PITCH = K_VELOCITY + N_MEMORY
+K_YAW_RATE = K_PITCH + N_MEMORY
+N_STATE = K_YAW_RATE + N_MEMORY
+# Output vector of one sample.
+(O_VELOCITY_REF, O_YAW_RATE_REF, O_PITCH_REF, O_COMMON, O_DIFFERENTIAL, O_LEFT, O_RIGHT, O_DT,
+ O_PITCH_REF_LIMITED, O_TORQUE_SATURATED) = range(10)
+N_OUTPUTS = 10
 
 
 @dataclass(frozen=True)
@@ -43,62 +63,148 @@ class ControlOutput:
     enabled: bool
 
 
-def _clip(value: float, limit: float) -> float:
+@kernel
+def _clip(value, limit):
     return min(max(value, -limit), limit)
+
+
+@kernel
+def _copysign_int(value):
+    return 1 if value >= 0.0 else -1
+
+
+def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
+    """The controller's validated parameters (controller_params) in the kernel's layout."""
+    s = settings
+    c = np.zeros(N_SETTINGS)
+    c[C_PERIOD] = 1.0 / s["rate"]
+    c[C_MAX_V_REF] = s["max_velocity_ref"]
+    c[C_MAX_W_REF] = s["max_yaw_rate_ref"]
+    c[C_PITCH_OFFSET] = s["pitch_offset"]
+    c[C_MAX_TORQUE] = s["max_wheel_torque"]
+    c[C_FALL_PITCH] = s["fall_pitch"]
+    c[C_MAX_GAP] = s["max_sample_gap"]
+    c[C_VELOCITY:C_PITCH] = PidGains(
+        s["velocity.kp"], s["velocity.ki"], s["velocity.kd"], s["velocity.derivative_filter"],
+        s["max_pitch_ref"], s["velocity.setpoint_weight"],
+    ).vector()
+    c[C_PITCH:C_YAW_RATE] = PidGains(
+        s["pitch.kp"], s["pitch.ki"], s["pitch.kd"], s["pitch.derivative_filter"], s["max_wheel_torque"],
+    ).vector()
+    c[C_YAW_RATE:] = PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"]).vector()
+    return c
+
+
+@kernel
+def cascade_reset(k):
+    """Forget all loop memory: after a fall, a re-enable, or a jump back in time."""
+    pid_reset(k[K_VELOCITY:K_PITCH])
+    pid_reset(k[K_PITCH:K_YAW_RATE])
+    pid_reset(k[K_YAW_RATE:])
+    k[K_HAS_LAST] = 0.0
+    k[K_COMMON_SAT] = 0.0
+    k[K_DIFF_SAT] = 0.0
+
+
+@kernel
+def _sample_time(c, k, stamp):
+    if k[K_HAS_LAST] == 0.0 or stamp <= k[K_LAST_STAMP]:
+        if k[K_HAS_LAST] != 0.0:
+            cascade_reset(k)  # time went backwards (a restarted simulator): start afresh
+        return c[C_PERIOD]
+    dt = stamp - k[K_LAST_STAMP]
+    if dt > c[C_MAX_GAP]:
+        for offset in (K_VELOCITY, K_PITCH, K_YAW_RATE):  # restart the derivatives
+            k[offset + M_HAS_PREVIOUS] = 0.0
+        return c[C_PERIOD]
+    return dt
+
+
+@kernel
+def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_rate, pitch, pitch_rate,
+                    cmd_vel_stale):
+    """Wheel torques for the state stamped `stamp` [s] into `out` (O_*); stale cmd_vel: zero references."""
+    dt = _sample_time(c, k, stamp)
+    k[K_LAST_STAMP] = stamp
+    k[K_HAS_LAST] = 1.0
+    if cmd_vel_stale:
+        velocity_ref = 0.0
+        yaw_rate_ref = 0.0
+    velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
+    yaw_rate_ref = _clip(yaw_rate_ref, c[C_MAX_W_REF])
+    if abs(pitch - c[C_PITCH_OFFSET]) > c[C_FALL_PITCH] and k[K_FALLEN] == 0.0:
+        k[K_FALLEN] = 1.0
+        cascade_reset(k)
+        k[K_LAST_STAMP] = stamp
+        k[K_HAS_LAST] = 1.0
+
+    pitch_ref = 0.0
+    common = 0.0
+    differential = 0.0
+    pitch_ref_limited = False
+    torque_saturated = False
+    if k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
+        velocity_pid = k[K_VELOCITY:K_PITCH]
+        pitch_pid = k[K_PITCH:K_YAW_RATE]
+        yaw_rate_pid = k[K_YAW_RATE:]
+        # The velocity loop must not wind up while the torque it asks for through the pitch loop is
+        # saturated: a positive pitch_ref asks for a negative common torque first.
+        pitch_ref = c[C_PITCH_OFFSET] + pid_update(
+            c[C_VELOCITY:C_PITCH], velocity_pid, velocity_ref, velocity, dt, 0.0, False, -int(k[K_COMMON_SAT]),
+        )
+        pitch_ref_limited = velocity_pid[M_LIMITED] != 0.0
+        common = -pid_update(c[C_PITCH:C_YAW_RATE], pitch_pid, pitch_ref, pitch, dt, pitch_rate, True, 0)
+        pitch_limited = pitch_pid[M_LIMITED] != 0.0
+        k[K_COMMON_SAT] = _copysign_int(common) if pitch_limited else 0
+        headroom = c[C_MAX_TORQUE] - abs(common)
+        requested = pid_update(c[C_YAW_RATE:], yaw_rate_pid, yaw_rate_ref, yaw_rate, dt, 0.0, False,
+                               int(k[K_DIFF_SAT]))
+        differential = _clip(requested, headroom)
+        k[K_DIFF_SAT] = _copysign_int(requested) if differential != requested else 0
+        torque_saturated = pitch_limited or differential != requested
+    out[O_VELOCITY_REF] = velocity_ref
+    out[O_YAW_RATE_REF] = yaw_rate_ref
+    out[O_PITCH_REF] = pitch_ref
+    out[O_COMMON] = common
+    out[O_DIFFERENTIAL] = differential
+    out[O_LEFT] = _clip(common - differential, c[C_MAX_TORQUE])
+    out[O_RIGHT] = _clip(common + differential, c[C_MAX_TORQUE])
+    out[O_DT] = dt
+    out[O_PITCH_REF_LIMITED] = 1.0 if pitch_ref_limited else 0.0
+    out[O_TORQUE_SATURATED] = 1.0 if torque_saturated else 0.0
 
 
 class CascadeController:
     """Velocity -> pitch cascade plus yaw-rate PI, with fall cut-off, enable and reset."""
 
     def __init__(self, settings: Mapping[str, Any], enabled: bool = True) -> None:
-        s = settings
-        self.period = 1.0 / s["rate"]
-        self.max_velocity_ref = s["max_velocity_ref"]
-        self.max_yaw_rate_ref = s["max_yaw_rate_ref"]
-        self.pitch_offset = s["pitch_offset"]
-        self.max_torque = s["max_wheel_torque"]
-        self.fall_pitch = s["fall_pitch"]
-        self.max_sample_gap = s["max_sample_gap"]
-        self.velocity_pid = Pid(PidGains(
-            s["velocity.kp"], s["velocity.ki"], s["velocity.kd"], s["velocity.derivative_filter"],
-            s["max_pitch_ref"], s["velocity.setpoint_weight"],
-        ))
-        self.pitch_pid = Pid(PidGains(
-            s["pitch.kp"], s["pitch.ki"], s["pitch.kd"], s["pitch.derivative_filter"], self.max_torque,
-        ))
-        self.yaw_rate_pid = Pid(PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, self.max_torque))
-        self.enabled = enabled
-        self.fallen = False
-        self._last_stamp: float | None = None
-        self._common_saturation = 0  # sign of the common torque's saturation at the last sample
-        self._differential_saturation = 0  # same for the differential torque (limited by the headroom)
+        self.c = settings_vector(settings)
+        self.k = np.zeros(N_STATE)
+        self._out = np.zeros(N_OUTPUTS)
+        self.period = float(self.c[C_PERIOD])
+        self.max_torque = float(self.c[C_MAX_TORQUE])
+        self.velocity_pid = Pid(PidGains(*self.c[C_VELOCITY:C_PITCH]), self.k[K_VELOCITY:K_PITCH])
+        self.pitch_pid = Pid(PidGains(*self.c[C_PITCH:C_YAW_RATE]), self.k[K_PITCH:K_YAW_RATE])
+        self.yaw_rate_pid = Pid(PidGains(*self.c[C_YAW_RATE:]), self.k[K_YAW_RATE:])
+        self.k[K_ENABLED] = 1.0 if enabled else 0.0
+
+    @property
+    def enabled(self) -> bool:
+        return bool(self.k[K_ENABLED])
+
+    @property
+    def fallen(self) -> bool:
+        return bool(self.k[K_FALLEN])
 
     def reset(self) -> None:
-        """Forget all loop memory: after a fall, a re-enable, or a jump back in time."""
-        for pid in (self.velocity_pid, self.pitch_pid, self.yaw_rate_pid):
-            pid.reset()
-        self._last_stamp = None
-        self._common_saturation = 0
-        self._differential_saturation = 0
+        cascade_reset(self.k)
 
     def set_enabled(self, enabled: bool) -> None:
         """Enabling clears a fall (the user stood the robot up); either way the loops restart from zero."""
-        self.enabled = enabled
+        self.k[K_ENABLED] = 1.0 if enabled else 0.0
         if enabled:
-            self.fallen = False
+            self.k[K_FALLEN] = 0.0
         self.reset()
-
-    def _sample_time(self, stamp: float) -> float:
-        if self._last_stamp is None or stamp <= self._last_stamp:
-            if self._last_stamp is not None:
-                self.reset()  # time went backwards (a restarted simulator): start afresh
-            return self.period
-        dt = stamp - self._last_stamp
-        if dt > self.max_sample_gap:
-            for pid in (self.velocity_pid, self.pitch_pid, self.yaw_rate_pid):
-                pid.restart_derivative()
-            return self.period
-        return dt
 
     def compute(
         self,
@@ -112,42 +218,14 @@ class CascadeController:
         cmd_vel_stale: bool = False,
     ) -> ControlOutput:
         """Wheel torques for the state stamped `stamp` [s]; stale cmd_vel means zero references."""
-        dt = self._sample_time(stamp)
-        self._last_stamp = stamp
-        if cmd_vel_stale:
-            velocity_ref = yaw_rate_ref = 0.0
-        velocity_ref = _clip(velocity_ref, self.max_velocity_ref)
-        yaw_rate_ref = _clip(yaw_rate_ref, self.max_yaw_rate_ref)
-        if abs(pitch - self.pitch_offset) > self.fall_pitch and not self.fallen:
-            self.fallen = True
-            self.reset()
-            self._last_stamp = stamp
-
-        active = self.enabled and not self.fallen
-        pitch_ref = common = differential = 0.0
-        pitch_ref_limited = torque_saturated = False
-        if active:
-            # The velocity loop must not wind up while the torque it asks for through the pitch loop is
-            # saturated: a positive pitch_ref asks for a negative common torque first.
-            pitch_ref = self.pitch_offset + self.velocity_pid.update(
-                velocity_ref, velocity, dt, hold_integral=-self._common_saturation,
-            )
-            pitch_ref_limited = self.velocity_pid.limited
-            common = -self.pitch_pid.update(pitch_ref, pitch, dt, measurement_rate=pitch_rate)
-            self._common_saturation = int(math.copysign(1, common)) if self.pitch_pid.limited else 0
-            headroom = self.max_torque - abs(common)
-            requested = self.yaw_rate_pid.update(
-                yaw_rate_ref, yaw_rate, dt, hold_integral=self._differential_saturation,
-            )
-            differential = _clip(requested, headroom)
-            self._differential_saturation = int(math.copysign(1, requested)) if differential != requested else 0
-            torque_saturated = self.pitch_pid.limited or differential != requested
-        left = _clip(common - differential, self.max_torque)
-        right = _clip(common + differential, self.max_torque)
+        o = self._out
+        cascade_compute(self.c, self.k, o, float(stamp), float(velocity_ref), float(yaw_rate_ref), float(velocity),
+                        float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale))
         return ControlOutput(
-            stamp=stamp, velocity_ref=velocity_ref, velocity=velocity, yaw_rate_ref=yaw_rate_ref,
-            yaw_rate=yaw_rate, pitch_ref=pitch_ref, pitch=pitch, pitch_rate=pitch_rate, common_torque=common,
-            differential_torque=differential, left_torque=left, right_torque=right, dt=dt,
-            pitch_ref_limited=pitch_ref_limited, torque_saturated=torque_saturated,
+            stamp=stamp, velocity_ref=float(o[O_VELOCITY_REF]), velocity=velocity,
+            yaw_rate_ref=float(o[O_YAW_RATE_REF]), yaw_rate=yaw_rate, pitch_ref=float(o[O_PITCH_REF]), pitch=pitch,
+            pitch_rate=pitch_rate, common_torque=float(o[O_COMMON]), differential_torque=float(o[O_DIFFERENTIAL]),
+            left_torque=float(o[O_LEFT]), right_torque=float(o[O_RIGHT]), dt=float(o[O_DT]),
+            pitch_ref_limited=bool(o[O_PITCH_REF_LIMITED]), torque_saturated=bool(o[O_TORQUE_SATURATED]),
             cmd_vel_stale=cmd_vel_stale, fallen=self.fallen, enabled=self.enabled,
         )

@@ -1,4 +1,4 @@
-"""A PID controller with what a real one needs; pure Python, so the node, the tuner and tests share it.
+"""A PID controller with what a real one needs, as a compiled kernel and a small class around it.
 
 - Derivative on the measurement, not on the error: a set-point step gives no derivative kick.
   The measured rate can be passed in (a gyro) instead of differencing the measurement.
@@ -10,12 +10,24 @@
   the actuators are saturated in that direction). The integral is not clipped to the output limit
   itself: with set-point weighting it must hold more than the limit while P pulls the other way.
 - The sample time is an argument of every update (taken from message stamps by the caller).
+
+`pid_update` is the one implementation: `Pid` (the nodes, the tuner, tests) and the batch engine both
+call it, on a gains vector (G_*) and a memory vector (M_*) per loop.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
+
+import numpy as np
+
+from twbr_common.jit import kernel
+
+G_KP, G_KI, G_KD, G_FILTER, G_LIMIT, G_WEIGHT = range(6)
+N_GAINS = 6
+M_INTEGRAL, M_PREVIOUS, M_HAS_PREVIOUS, M_RATE, M_OUTPUT, M_LIMITED = range(6)
+N_MEMORY = 6
 
 
 @dataclass(frozen=True)
@@ -27,25 +39,89 @@ class PidGains:
     output_limit: float = math.inf  # |output| <= output_limit
     setpoint_weight: float = 1.0  # b: the proportional term acts on b*setpoint - measurement
 
+    def vector(self) -> np.ndarray:
+        """The gains in the kernel's layout (G_*)."""
+        return np.array(astuple(self), dtype=float)
+
+
+@kernel
+def pid_reset(m):
+    """Forget the integral and the derivative memory (after a fall, a re-enable or a long gap)."""
+    m[:] = 0.0
+
+
+@kernel
+def pid_update(g, m, setpoint, measurement, dt, measurement_rate, has_rate, hold_integral):
+    """One sample; `has_rate` says whether `measurement_rate` [unit/s] is given (else it is differenced).
+    `hold_integral` = +1/-1 forbids integrating upwards/downwards (cascade windup). Returns the output."""
+    if not dt > 0.0:
+        raise ValueError("dt must be > 0")
+    error = setpoint - measurement
+    has_previous = m[M_HAS_PREVIOUS] != 0.0
+    if has_rate:
+        raw_rate = measurement_rate
+    elif has_previous:
+        raw_rate = (measurement - m[M_PREVIOUS]) / dt
+    else:
+        raw_rate = 0.0
+    if not has_previous and not has_rate:
+        m[M_RATE] = 0.0
+    elif g[G_FILTER] > 0.0:
+        m[M_RATE] += dt / (g[G_FILTER] + dt) * (raw_rate - m[M_RATE])
+    else:
+        m[M_RATE] = raw_rate
+    m[M_PREVIOUS] = measurement
+    m[M_HAS_PREVIOUS] = 1.0
+
+    p_term = g[G_KP] * (g[G_WEIGHT] * setpoint - measurement)
+    d_term = -g[G_KD] * m[M_RATE]
+    limit = g[G_LIMIT]
+    integral = m[M_INTEGRAL]
+    candidate = integral + g[G_KI] * error * dt
+    unlimited = p_term + candidate + d_term
+    pushing_up = candidate > integral
+    blocked = (pushing_up and (unlimited > limit or hold_integral > 0)) or (
+        not pushing_up and candidate < integral and (unlimited < -limit or hold_integral < 0)
+    )
+    if not blocked:
+        m[M_INTEGRAL] = candidate
+    unlimited = p_term + m[M_INTEGRAL] + d_term
+    output = min(max(unlimited, -limit), limit)
+    m[M_OUTPUT] = output
+    m[M_LIMITED] = 1.0 if output != unlimited else 0.0
+    return output
+
 
 class Pid:
-    def __init__(self, gains: PidGains) -> None:
+    """One loop: its gains and its memory (a view into a caller's array, or its own)."""
+
+    def __init__(self, gains: PidGains, memory: np.ndarray | None = None) -> None:
         if not gains.output_limit > 0.0:
             raise ValueError("output_limit must be > 0")
         self.gains = gains
+        self.g = gains.vector()
+        self.m = np.zeros(N_MEMORY) if memory is None else memory
         self.reset()
 
     def reset(self) -> None:
-        """Forget the integral and the derivative memory (after a fall, a re-enable or a long gap)."""
-        self.integral = 0.0  # integral term, in output units
-        self._previous: float | None = None
-        self._rate = 0.0  # filtered measurement rate
-        self.output = 0.0
-        self.limited = False
+        pid_reset(self.m)
 
     def restart_derivative(self) -> None:
         """Drop the derivative memory only: the next sample has no previous one to difference."""
-        self._previous = None
+        self.m[M_HAS_PREVIOUS] = 0.0
+
+    @property
+    def integral(self) -> float:
+        """The integral term, in output units."""
+        return float(self.m[M_INTEGRAL])
+
+    @property
+    def output(self) -> float:
+        return float(self.m[M_OUTPUT])
+
+    @property
+    def limited(self) -> bool:
+        return bool(self.m[M_LIMITED])
 
     def update(
         self,
@@ -55,36 +131,6 @@ class Pid:
         measurement_rate: float | None = None,
         hold_integral: int = 0,
     ) -> float:
-        """One sample. `hold_integral` = +1/-1 forbids integrating upwards/downwards (cascade windup)."""
-        if not dt > 0.0:
-            raise ValueError("dt must be > 0")
-        g = self.gains
-        error = setpoint - measurement
-        if measurement_rate is None:
-            raw_rate = 0.0 if self._previous is None else (measurement - self._previous) / dt
-        else:
-            raw_rate = measurement_rate
-        if self._previous is None and measurement_rate is None:
-            self._rate = 0.0
-        elif g.derivative_filter > 0.0:
-            self._rate += dt / (g.derivative_filter + dt) * (raw_rate - self._rate)
-        else:
-            self._rate = raw_rate
-        self._previous = measurement
-
-        p_term = g.kp * (g.setpoint_weight * setpoint - measurement)
-        d_term = -g.kd * self._rate
-        limit = g.output_limit
-        candidate = self.integral + g.ki * error * dt
-        unlimited = p_term + candidate + d_term
-        pushing_up = candidate > self.integral
-        blocked = (
-            (pushing_up and (unlimited > limit or hold_integral > 0))
-            or (not pushing_up and candidate < self.integral and (unlimited < -limit or hold_integral < 0))
-        )
-        if not blocked:
-            self.integral = candidate
-        unlimited = p_term + self.integral + d_term
-        self.output = min(max(unlimited, -limit), limit)
-        self.limited = self.output != unlimited
-        return self.output
+        has_rate = measurement_rate is not None
+        return pid_update(self.g, self.m, float(setpoint), float(measurement), float(dt),
+                          float(measurement_rate) if has_rate else 0.0, has_rate, int(hold_integral))

@@ -14,12 +14,16 @@ Commands: heading alpha = atan2(F_y, F_x) (eq. 26); omega = K_s wrap(alpha - psi
 v = v_max away from obstacles and v_max d/rho_o inside the range (eq. 28, whose printed conditions are
 swapped), then also limited near a static target (approach_gain * distance) and in sharp turns
 (cos of the heading error, never negative) so the robot turns before it drives.
+
+`apf_step` is the one implementation of a planning step, compiled: `ApfPlanner` (the node, the headless
+runs) and the batch engine call it on a settings vector (A_*), a memory vector (R_*), a ring buffer of
+recent progress and an output vector (Q_*) per robot. The numpy functions below serve figures and tests
+of the equations, on the same scalar kernels.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
@@ -28,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
 
 
 class Mode(Enum):
@@ -38,6 +43,37 @@ class Mode(Enum):
     STUCK = "stuck"  # no progress towards the target for stuck_time: a local minimum (reported, not hidden)
     STALE = "stale"  # target or obstacle data too old: stopped
     NO_TARGET = "no_target"  # nothing to go to yet: stopped
+
+
+MODES = tuple(Mode)  # a mode's code in the kernels is its index here
+TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET = range(len(MODES))
+
+# Settings vector, in the order of planner_params.APF_SPECS.
+(A_K_P, A_K_V, A_K_O, A_RHO_O, A_K_S, A_V_MAX, A_MAX_YAW_RATE, A_ROBOT_RADIUS, A_MIN_DISTANCE, A_CAPTURE_RADIUS,
+ A_APPROACH_GAIN, A_SLOW_IN_TURNS, A_MAX_ACCELERATION, A_MAX_YAW_ACCELERATION, A_STUCK_TIME,
+ A_STUCK_PROGRESS) = range(16)
+SETTING_NAMES = ("k_p", "k_v", "k_o", "rho_o", "k_s", "v_max", "max_yaw_rate", "robot_radius", "min_distance",
+                 "capture_radius", "approach_gain", "slow_in_turns", "max_acceleration", "max_yaw_acceleration",
+                 "stuck_time", "stuck_progress")
+# Memory vector: the last command (for the acceleration limits) and the progress ring's head and length.
+R_HAS_LAST, R_LAST_STAMP, R_LAST_V, R_LAST_OMEGA, R_HEAD, R_LENGTH = range(6)
+N_MEMORY = 6
+PROGRESS_COLUMNS = 4  # (t, distance, x, y) per planning step
+# Output vector of one step.
+(Q_F_ATT_X, Q_F_ATT_Y, Q_F_REP_X, Q_F_REP_Y, Q_ALPHA, Q_ERROR, Q_V, Q_OMEGA, Q_DISTANCE, Q_NEAREST_D,
+ Q_NEAREST_INDEX, Q_MODE) = range(12)
+N_OUTPUTS = 12
+FIRST_PERIOD = 0.05  # [s] the first command's acceleration step (one period at the node's default 20 Hz)
+
+
+def settings_vector(g: Mapping[str, Any]) -> np.ndarray:
+    """The planner's validated parameters (planner_params.APF_SPECS) in the kernel's layout."""
+    return np.array([float(g[name]) for name in SETTING_NAMES])
+
+
+def progress_capacity(stuck_time: float, rate: float) -> int:
+    """Rows the progress ring needs at `rate` [Hz]: the window's steps, the one before it, the new one."""
+    return math.ceil(stuck_time * rate) + 4
 
 
 @dataclass(frozen=True)
@@ -58,39 +94,83 @@ class Obstacles:
         if not items:
             return Obstacles.empty()
         a = np.array(items, dtype=float)
-        return Obstacles(a[:, 1:3], a[:, 3], a[:, 0].astype(int))
+        return Obstacles(np.ascontiguousarray(a[:, 1:3]), a[:, 3].copy(), a[:, 0].astype(int))
+
+
+@kernel
+def _attractive(px, py, vx, vy, tx, ty, tvx, tvy, k_p, k_v):
+    return k_p * (tx - px) + k_v * (tvx - vx), k_p * (ty - py) + k_v * (tvy - vy)
+
+
+@kernel
+def _repulsive_magnitude(d, k_o, rho_o, d_min):
+    d = max(d, d_min)
+    if d > rho_o:
+        return 0.0
+    return k_o * ((1.0 / d**2) * (1.0 / d - 1.0 / rho_o) - (d - rho_o))
+
+
+@kernel
+def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distances):
+    """Eq. 23 summed over the obstacles (from each obstacle to the robot); clearances into `distances`."""
+    fx = 0.0
+    fy = 0.0
+    for j in range(radii.shape[0]):
+        ax = px - positions[j, 0]
+        ay = py - positions[j, 1]
+        centre = math.sqrt(ax * ax + ay * ay)
+        d = centre - radii[j] - robot_radius
+        distances[j] = d
+        magnitude = _repulsive_magnitude(d, k_o, rho_o, d_min)
+        scale = max(centre, 1e-9)
+        fx += magnitude * (ax / scale)
+        fy += magnitude * (ay / scale)
+    return fx, fy
+
+
+@kernel
+def speed_command(nearest_distance: float, rho_o: float, v_max: float) -> float:
+    """Eq. 28 with its conditions the right way round: v_max outside the range, v_max d / rho_o inside."""
+    if nearest_distance > rho_o:
+        return v_max
+    return v_max * max(nearest_distance, 0.0) / rho_o
+
+
+@kernel
+def yaw_rate_command(desired_heading: float, yaw: float, k_s: float, limit: float) -> tuple[float, float]:
+    """Eq. 27 on the wrapped heading error; returns (omega, heading error)."""
+    error = wrap_angle(desired_heading - yaw)
+    return min(max(k_s * error, -limit), limit), error
 
 
 def attractive_force(p_rob: np.ndarray, v_rob: np.ndarray, p_tar: np.ndarray, v_tar: np.ndarray, k_p: float,
                      k_v: float) -> np.ndarray:
     """Eq. 21."""
-    return k_p * (np.asarray(p_tar) - p_rob) + k_v * (np.asarray(v_tar) - v_rob)
+    return np.array(_attractive(float(p_rob[0]), float(p_rob[1]), float(v_rob[0]), float(v_rob[1]),
+                                float(p_tar[0]), float(p_tar[1]), float(v_tar[0]), float(v_tar[1]), k_p, k_v))
+
+
+def repulsive_magnitude(d: Any, k_o: float, rho_o: float, d_min: float) -> Any:
+    """Eq. 23 along the distance; zero outside rho_o; d below d_min (touching) counts as d_min."""
+    if np.ndim(d) == 0:
+        return _repulsive_magnitude(float(d), k_o, rho_o, d_min)
+    flat = np.asarray(d, dtype=float).ravel()
+    return np.array([_repulsive_magnitude(v, k_o, rho_o, d_min) for v in flat]).reshape(np.shape(d))
+
+
+def repulsive_force(p_rob: np.ndarray, obstacles: Obstacles, k_o: float, rho_o: float, robot_radius: float,
+                    d_min: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sum of eq. 23 over the obstacles, pointing from each obstacle to the robot; also the distances."""
+    d = np.empty(len(obstacles.radii))
+    f = _repulsion(float(p_rob[0]), float(p_rob[1]), obstacles.positions, obstacles.radii, k_o, rho_o,
+                   robot_radius, d_min, d)
+    return np.array(f), d
 
 
 def surface_distances(points: np.ndarray, obstacles: Obstacles, robot_radius: float) -> np.ndarray:
     """Clearance from each point (..., 2) to each obstacle's surface: (..., N) [m]."""
     centre = np.linalg.norm(np.asarray(points)[..., None, :] - obstacles.positions, axis=-1)
     return centre - obstacles.radii - robot_radius
-
-
-def repulsive_magnitude(d: np.ndarray, k_o: float, rho_o: float, d_min: float) -> np.ndarray:
-    """Eq. 23 along the distance; zero outside rho_o; d below d_min (touching) counts as d_min."""
-    d = np.maximum(np.asarray(d, dtype=float), d_min)
-    inside = d <= rho_o
-    return np.where(inside, k_o * ((1.0 / d**2) * (1.0 / d - 1.0 / rho_o) - (d - rho_o)), 0.0)
-
-
-def repulsive_force(p_rob: np.ndarray, obstacles: Obstacles, k_o: float, rho_o: float, robot_radius: float,
-                    d_min: float) -> tuple[np.ndarray, np.ndarray]:
-    """Sum of eq. 23 over the obstacles, pointing from each obstacle to the robot; also the distances."""
-    if len(obstacles.radii) == 0:
-        return np.zeros(2), np.empty(0)
-    away = np.asarray(p_rob) - obstacles.positions
-    centre = np.linalg.norm(away, axis=1)
-    d = centre - obstacles.radii - robot_radius
-    unit = away / np.maximum(centre, 1e-9)[:, None]
-    magnitude = repulsive_magnitude(d, k_o, rho_o, d_min)
-    return (magnitude[:, None] * unit).sum(axis=0), d
 
 
 def attractive_potential(points: np.ndarray, p_tar: np.ndarray, k_p: float, k_v: float = 0.0,
@@ -119,17 +199,109 @@ def potential(points: np.ndarray, p_tar: np.ndarray, obstacles: Obstacles, g: Ma
         points, obstacles, g["k_o"], g["rho_o"], g["robot_radius"], g["min_distance"])
 
 
-def speed_command(nearest_distance: float, rho_o: float, v_max: float) -> float:
-    """Eq. 28 with its conditions the right way round: v_max outside the range, v_max d / rho_o inside."""
-    if nearest_distance > rho_o:
-        return v_max
-    return v_max * max(nearest_distance, 0.0) / rho_o
+@kernel
+def _smooth(a, m, stamp, v, omega):
+    """Acceleration limits (a velocity smoother): a balancing robot must lean to accelerate, so a
+    speed step is a pitch transient; these keep |pitch| within about a/g of upright."""
+    if m[R_HAS_LAST] != 0.0 and stamp > m[R_LAST_STAMP]:
+        dt = stamp - m[R_LAST_STAMP]
+    elif m[R_HAS_LAST] != 0.0:
+        dt = 0.0  # a repeated stamp repeats the last command
+    else:
+        dt = FIRST_PERIOD  # the first command starts from rest, like every later one from the previous one
+    dv = a[A_MAX_ACCELERATION] * dt
+    dw = a[A_MAX_YAW_ACCELERATION] * dt
+    v = min(max(v, m[R_LAST_V] - dv), m[R_LAST_V] + dv)
+    omega = min(max(omega, m[R_LAST_OMEGA] - dw), m[R_LAST_OMEGA] + dw)
+    m[R_HAS_LAST] = 1.0
+    m[R_LAST_STAMP] = stamp
+    m[R_LAST_V] = v
+    m[R_LAST_OMEGA] = omega
+    return v, omega
 
 
-def yaw_rate_command(desired_heading: float, yaw: float, k_s: float, limit: float) -> tuple[float, float]:
-    """Eq. 27 on the wrapped heading error; returns (omega, heading error)."""
-    error = wrap_angle(desired_heading - yaw)
-    return min(max(k_s * error, -limit), limit), error
+@kernel
+def _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+    """No progress over stuck_time: the robot moved less than stuck_progress, or (static target) the
+    distance to it shrank by less than that. A robot following a moving target is not stuck."""
+    capacity = ring.shape[0]
+    head = int(m[R_HEAD])
+    length = int(m[R_LENGTH])
+    if length == capacity:
+        raise ValueError("planner progress ring is full: size it with progress_capacity")
+    row = (head + length) % capacity
+    ring[row, 0] = stamp
+    ring[row, 1] = distance
+    ring[row, 2] = x
+    ring[row, 3] = y
+    length += 1
+    window = a[A_STUCK_TIME]
+    while length > 1 and ring[(head + 1) % capacity, 0] <= stamp - window:
+        head = (head + 1) % capacity
+        length -= 1
+    m[R_HEAD] = head
+    m[R_LENGTH] = length
+    if stamp - ring[head, 0] < window:
+        return False
+    little = a[A_STUCK_PROGRESS]
+    moved = math.hypot(x - ring[head, 2], y - ring[head, 3])
+    return moved < little or (not moving_target and ring[head, 1] - distance < little)
+
+
+@kernel
+def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii,
+             distances):
+    """One planning step towards a target into `out` (Q_*): eqs. 21-28, arrival, following, stuck, smoothing."""
+    vx = speed * math.cos(yaw)
+    vy = speed * math.sin(yaw)
+    f_att_x, f_att_y = _attractive(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
+    f_rep_x, f_rep_y = _repulsion(x, y, positions, radii, a[A_K_O], a[A_RHO_O], a[A_ROBOT_RADIUS],
+                                  a[A_MIN_DISTANCE], distances)
+    total_x = f_att_x + f_rep_x
+    total_y = f_att_y + f_rep_y
+    nearest = -1
+    nearest_d = math.inf
+    for j in range(radii.shape[0]):
+        if distances[j] < nearest_d or nearest < 0:
+            nearest = j
+            nearest_d = distances[j]
+    distance = math.hypot(target_x - x, target_y - y)
+    alpha = math.atan2(total_y, total_x)
+    omega, error = yaw_rate_command(alpha, yaw, a[A_K_S], a[A_MAX_YAW_RATE])
+    v = speed_command(nearest_d, a[A_RHO_O], a[A_V_MAX])
+    if a[A_SLOW_IN_TURNS] != 0.0:
+        v *= max(0.0, math.cos(error))
+    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
+    moving_target = math.hypot(target_vx, target_vy) > 1e-3
+    arrived = False
+    if distance <= a[A_CAPTURE_RADIUS]:
+        if moving_target:
+            mode = FOLLOWING
+        else:
+            m[R_HEAD] = 0.0
+            m[R_LENGTH] = 0.0
+            v = 0.0
+            omega = 0.0
+            mode = ARRIVED
+            arrived = True
+    if not arrived:
+        if not moving_target:
+            v = min(v, a[A_APPROACH_GAIN] * distance)
+        if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+            mode = STUCK
+    v, omega = _smooth(a, m, stamp, v, omega)
+    out[Q_F_ATT_X] = f_att_x
+    out[Q_F_ATT_Y] = f_att_y
+    out[Q_F_REP_X] = f_rep_x
+    out[Q_F_REP_Y] = f_rep_y
+    out[Q_ALPHA] = alpha
+    out[Q_ERROR] = error
+    out[Q_V] = v
+    out[Q_OMEGA] = omega
+    out[Q_DISTANCE] = distance
+    out[Q_NEAREST_D] = nearest_d
+    out[Q_NEAREST_INDEX] = nearest
+    out[Q_MODE] = mode
 
 
 @dataclass(frozen=True)
@@ -138,10 +310,6 @@ class Target:
     y: float
     vx: float
     vy: float
-
-    @property
-    def moving(self) -> bool:
-        return math.hypot(self.vx, self.vy) > 1e-3
 
 
 @dataclass(frozen=True)
@@ -165,80 +333,41 @@ class ApfPlanner:
 
     def __init__(self, g: Mapping[str, Any]) -> None:
         self.g = dict(g)
-        self._progress: deque[tuple[float, float, float, float]] = deque()  # (t, distance, x, y)
-        self._last: tuple[float, float, float] | None = None  # (stamp, v, omega) commanded
+        self.a = settings_vector(self.g)
+        self.m = np.zeros(N_MEMORY)
+        self._ring = np.zeros((progress_capacity(self.g["stuck_time"], 20.0), PROGRESS_COLUMNS))
+        self._out = np.zeros(N_OUTPUTS)
 
     def reset(self) -> None:
-        self._progress.clear()
-        self._last = None
-
-    def _smooth(self, stamp: float, v: float, omega: float) -> tuple[float, float]:
-        """Acceleration limits (a velocity smoother): a balancing robot must lean to accelerate, so a
-        speed step is a pitch transient; these keep |pitch| within about a/g of upright."""
-        if self._last is not None and stamp > self._last[0]:
-            dt = stamp - self._last[0]
-            dv, dw = self.g["max_acceleration"] * dt, self.g["max_yaw_acceleration"] * dt
-            v = min(max(v, self._last[1] - dv), self._last[1] + dv)
-            omega = min(max(omega, self._last[2] - dw), self._last[2] + dw)
-        elif self._last is not None:
-            v, omega = self._last[1], self._last[2]
-        else:
-            # The first command starts from rest, like every later one from the previous command.
-            v = min(max(v, -self.g["max_acceleration"] * 0.05), self.g["max_acceleration"] * 0.05)
-            omega = min(max(omega, -self.g["max_yaw_acceleration"] * 0.05), self.g["max_yaw_acceleration"] * 0.05)
-        self._last = (stamp, v, omega)
-        return v, omega
+        self.m[:] = 0.0
 
     def stopped(self, stamp: float, mode: Mode) -> PlannerOutput:
         zero = np.zeros(2)
         return PlannerOutput(stamp, zero, zero, zero, math.nan, math.nan, 0.0, 0.0, math.nan, math.inf, -1, mode)
 
+    def _make_room(self) -> None:
+        """The node's rate is its own: the ring grows (oldest row first) if a faster rate fills it."""
+        if int(self.m[R_LENGTH]) < len(self._ring):
+            return
+        head = int(self.m[R_HEAD])
+        self._ring = np.concatenate([np.roll(self._ring, -head, axis=0), np.zeros_like(self._ring)])
+        self.m[R_HEAD] = 0.0
+
     def step(self, stamp: float, x: float, y: float, yaw: float, speed: float, target: Target | None,
              obstacles: Obstacles) -> PlannerOutput:
-        g = self.g
         if target is None:
             return self.stopped(stamp, Mode.NO_TARGET)
-        p = np.array([x, y])
-        v_rob = speed * np.array([math.cos(yaw), math.sin(yaw)])
-        p_tar = np.array([target.x, target.y])
-        f_att = attractive_force(p, v_rob, p_tar, np.array([target.vx, target.vy]), g["k_p"], g["k_v"])
-        f_rep, d = repulsive_force(p, obstacles, g["k_o"], g["rho_o"], g["robot_radius"], g["min_distance"])
-        total = f_att + f_rep
-        nearest = int(np.argmin(d)) if len(d) else -1
-        nearest_d = float(d[nearest]) if nearest >= 0 else math.inf
-        nearest_id = int(obstacles.ids[nearest]) if nearest >= 0 else -1
-        distance = float(np.linalg.norm(p_tar - p))
-        alpha = math.atan2(total[1], total[0])
-        omega, error = yaw_rate_command(alpha, yaw, g["k_s"], g["max_yaw_rate"])
-        v = speed_command(nearest_d, g["rho_o"], g["v_max"])
-        if g["slow_in_turns"]:
-            v *= max(0.0, math.cos(error))
-        mode = Mode.AVOIDING if nearest_d <= g["rho_o"] else Mode.TRACKING
-        if distance <= g["capture_radius"]:
-            if target.moving:
-                mode = Mode.FOLLOWING
-            else:
-                self._progress.clear()
-                v, omega = self._smooth(stamp, 0.0, 0.0)
-                return PlannerOutput(stamp, f_att, f_rep, total, alpha, error, v, omega, distance, nearest_d,
-                                     nearest_id, Mode.ARRIVED)
-        if not target.moving:
-            v = min(v, g["approach_gain"] * distance)
-        if mode is not Mode.FOLLOWING and self._stuck(stamp, distance, x, y, target.moving):
-            mode = Mode.STUCK
-        v, omega = self._smooth(stamp, v, omega)
-        return PlannerOutput(stamp, f_att, f_rep, total, alpha, error, v, omega, distance, nearest_d, nearest_id,
-                             mode)
-
-    def _stuck(self, stamp: float, distance: float, x: float, y: float, moving_target: bool) -> bool:
-        """No progress over stuck_time: the robot moved less than stuck_progress, or (static target) the
-        distance to it shrank by less than that. A robot following a moving target is not stuck."""
-        window = self.g["stuck_time"]
-        self._progress.append((stamp, distance, x, y))
-        while len(self._progress) > 1 and self._progress[1][0] <= stamp - window:
-            self._progress.popleft()
-        first_t, first_d, first_x, first_y = self._progress[0]
-        if stamp - first_t < window:
-            return False
-        little = self.g["stuck_progress"]
-        return math.hypot(x - first_x, y - first_y) < little or (not moving_target and first_d - distance < little)
+        self._make_room()
+        o = self._out
+        d = np.empty(len(obstacles.radii))
+        apf_step(self.a, self.m, self._ring, o, float(stamp), float(x), float(y), float(yaw), float(speed),
+                 float(target.x), float(target.y), float(target.vx), float(target.vy), obstacles.positions,
+                 obstacles.radii, d)
+        f_att = o[Q_F_ATT_X:Q_F_ATT_Y + 1].copy()
+        f_rep = o[Q_F_REP_X:Q_F_REP_Y + 1].copy()
+        nearest = int(o[Q_NEAREST_INDEX])
+        return PlannerOutput(
+            stamp, f_att, f_rep, f_att + f_rep, float(o[Q_ALPHA]), float(o[Q_ERROR]), float(o[Q_V]),
+            float(o[Q_OMEGA]), float(o[Q_DISTANCE]), float(o[Q_NEAREST_D]),
+            int(obstacles.ids[nearest]) if nearest >= 0 else -1, MODES[int(o[Q_MODE])],
+        )

@@ -76,7 +76,7 @@ def perturbation_factors(seed: int, fraction: float) -> dict[str, float]:
 def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any]:
     """One run of the scenario on the cores: a CSV row."""
     from twbr_planner.apf import Mode
-    from twbr_runner.closed_loop import planner_reference, run_closed_loop
+    from twbr_runner.closed_loop import planner_reference, run_closed_loop, scenario_reference
 
     scenario = load_scenario(Path(scenario_path))
     factors = perturbation_factors(seed, perturbation)
@@ -84,6 +84,7 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
     robot = {name: nominal[name] * factors[name] for name in PERTURBED}
     planner_log: list = []
     plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
+    command = scenario_reference(scenario)
     world = {"next": 0.0, "reached_at": None, "min_clearance": math.inf, "collisions": 0}
 
     def reference(t: float, sim) -> tuple[float, float]:
@@ -94,7 +95,7 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
             world["collisions"] = sim.world.collision_count
             if a.target_reached and world["reached_at"] is None:
                 world["reached_at"] = t
-        return plan(t, sim)
+        return plan(t, sim) if scenario.target is not None else command(t, sim)
 
     def ended(_sim) -> bool:
         return scenario.end_on_target and world["reached_at"] is not None

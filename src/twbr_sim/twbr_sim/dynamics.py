@@ -19,6 +19,7 @@ import numpy as np
 from twbr_sim.robot_params import (
     P_CA,
     P_D,
+    P_FALL,
     P_G,
     P_I1,
     P_I2,
@@ -180,6 +181,22 @@ def rk4_step(p, s, cmd_left, cmd_right, h, work):
     hs = h / n_sub
     for _ in range(n_sub):
         _rk4(p, s, cmd_left, cmd_right, hs, work)
+
+
+@_jit
+def advance_upright(p, s, cmd_left, cmd_right, h, n_steps, work):
+    """n_steps of rk4_step unless the robot falls (|pitch| > fall_limit): then it lies still, since no
+    ground contact is modelled, and the result is True. The simulator and the batch engine step with it."""
+    for _ in range(n_steps):
+        rk4_step(p, s, cmd_left, cmd_right, h, work)
+        if abs(s[S_TH]) > p[P_FALL]:
+            s[S_XD] = 0.0
+            s[S_THD] = 0.0
+            s[S_PSID] = 0.0
+            s[S_IL] = 0.0
+            s[S_IR] = 0.0
+            return True
+    return False
 
 
 @_jit

@@ -13,8 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
+from twbr_common.jit import kernel
 from twbr_common.params import ConfigError, ParamSpec
 
 _PI_RE = re.compile(r"^\s*(-?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+\.?\d*))?\s*$")
@@ -216,12 +218,27 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ConfigError(f"scenario file {path}: {e}") from None
 
 
-def command_at(scenario: Scenario, t: float) -> tuple[float, float]:
-    """The (v, w) the scenario's command profile asks for at time t (zero before its first step)."""
-    v = w = 0.0
-    for step in scenario.commands:
-        if t + 1e-12 >= step.t:
-            v, w = step.v, step.w
+@kernel
+def command_profile_at(times, speeds, yaw_rates, t):
+    """(v, w) of a command profile at time t: the last step at or before t (zero before the first)."""
+    v = 0.0
+    w = 0.0
+    for k in range(times.shape[0]):
+        if t + 1e-12 >= times[k]:
+            v = speeds[k]
+            w = yaw_rates[k]
         else:
             break
     return v, w
+
+
+def command_profile(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scenario's command steps as arrays (t [s], v [m/s], w [rad/s]) for command_profile_at."""
+    steps = scenario.commands
+    return (np.array([c.t for c in steps], dtype=float), np.array([c.v for c in steps], dtype=float),
+            np.array([c.w for c in steps], dtype=float))
+
+
+def command_at(scenario: Scenario, t: float) -> tuple[float, float]:
+    """The (v, w) the scenario's command profile asks for at time t (zero before its first step)."""
+    return command_profile_at(*command_profile(scenario), float(t))

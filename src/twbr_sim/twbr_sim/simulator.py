@@ -14,7 +14,7 @@ from twbr_common.guard import TORQUE_LIMIT, InputGuard, Verdict
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
 from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
-from twbr_sim.robot_params import P_FALL, P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario
 from twbr_sim.world import Assessment, World
 
@@ -122,14 +122,19 @@ class Simulator:
 
     def advance(self, n_steps: int) -> None:
         """Integrate n_steps physics steps; a fallen robot lies still (no ground contact is modelled)."""
-        for _ in range(n_steps):
+        last_step_time = (self.step_count + n_steps - 1) * self.h
+        if self.command_stale or not self.guard.is_stale(last_step_time):
+            # One command holds for the whole block (staleness only grows with time): one kernel call.
             if not self.fallen:
                 left, right = self.applied_command()
-                dyn.rk4_step(self.p, self.state, left, right, self.h, self._work)
-                if abs(self.state[dyn.S_TH]) > self.p[P_FALL]:
-                    self.fallen = True
-                    self.state[[dyn.S_XD, dyn.S_THD, dyn.S_PSID, dyn.S_IL, dyn.S_IR]] = 0.0
-            self.step_count += 1
+                self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, n_steps, self._work)
+            self.step_count += n_steps
+        else:
+            for _ in range(n_steps):  # the command goes stale inside the block: find the step
+                if not self.fallen:
+                    left, right = self.applied_command()
+                    self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, 1, self._work)
+                self.step_count += 1
         if self.world is not None:
             self.world.advance_to(self.time)
 

@@ -3,7 +3,8 @@
 The target moves at constant speed; its yaw rate is redrawn uniformly in +-max_yaw_rate every
 turn_interval seconds from a seeded generator, and each segment is integrated exactly as an arc, so
 the world at time t is the same whichever times it was sampled at. Obstacles move in straight lines.
-Pure Python and numpy, no rclpy: the simulator node, world_node and batch runs share it.
+No rclpy: the simulator node, world_node and the headless runs use `World`; it and the batch engine
+call the same compiled kernels (the target's segments, the obstacles' positions, the assessment).
 """
 
 from __future__ import annotations
@@ -13,7 +14,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
 from twbr_sim.scenario import ObstacleSpec, Scenario
+
+# The target's current segment: where and when it started, its heading then, its yaw rate, and the index
+# of the next yaw-rate draw.
+SEG_X, SEG_Y, SEG_HEADING, SEG_T, SEG_YAW_RATE, SEG_NEXT_DRAW = range(6)
+N_SEGMENT = 6
+# The world's tally of collisions: how many began, and whether the robot is in one now.
+W_COLLISIONS, W_IN_COLLISION = range(2)
+N_TALLY = 2
 
 
 @dataclass(frozen=True)
@@ -40,6 +51,7 @@ class Assessment:
     target_reached: bool
 
 
+@kernel
 def arc(x: float, y: float, heading: float, speed: float, yaw_rate: float, dt: float) -> tuple[float, float, float]:
     """Exact constant-speed, constant-yaw-rate motion over dt: (x, y, heading)."""
     new_heading = heading + yaw_rate * dt
@@ -53,24 +65,92 @@ def arc(x: float, y: float, heading: float, speed: float, yaw_rate: float, dt: f
     )
 
 
+@kernel
+def advance_segments(seg, yaw_rate_draws, t, speed, interval):
+    """Move the target's segment on to the one holding time t; False when the draws ran out first."""
+    while t >= seg[SEG_T] + interval:
+        k = int(seg[SEG_NEXT_DRAW])
+        if k >= yaw_rate_draws.shape[0]:
+            return False
+        seg[SEG_X], seg[SEG_Y], seg[SEG_HEADING] = arc(
+            seg[SEG_X], seg[SEG_Y], seg[SEG_HEADING], speed, seg[SEG_YAW_RATE], interval
+        )
+        seg[SEG_T] += interval
+        seg[SEG_YAW_RATE] = yaw_rate_draws[k]
+        seg[SEG_NEXT_DRAW] = k + 1
+    return True
+
+
+@kernel
+def target_at(seg, speed, t):
+    """(x, y, heading, vx, vy) of the target at time t within its segment."""
+    x, y, heading = arc(seg[SEG_X], seg[SEG_Y], seg[SEG_HEADING], speed, seg[SEG_YAW_RATE], t - seg[SEG_T])
+    heading = wrap_angle(heading)
+    return x, y, heading, speed * math.cos(heading), speed * math.sin(heading)
+
+
+@kernel
+def obstacle_positions_at(start, velocity, t, out):
+    for j in range(start.shape[0]):
+        out[j, 0] = start[j, 0] + velocity[j, 0] * t
+        out[j, 1] = start[j, 1] + velocity[j, 1] * t
+
+
+@kernel
+def assess_obstacles(positions, radii, robot_radius, robot_x, robot_y, tally):
+    """(clearance, index of the obstacle hit or -1): footprint to the nearest surface [m], inf without
+    obstacles; a collision that begins now is counted in `tally`."""
+    clearance = math.inf
+    nearest = -1
+    for j in range(radii.shape[0]):
+        gap = math.hypot(positions[j, 0] - robot_x, positions[j, 1] - robot_y) - radii[j] - robot_radius
+        if gap < clearance or nearest < 0:
+            clearance = gap
+            nearest = j
+    hit = nearest if nearest >= 0 and clearance < 0.0 else -1
+    if hit >= 0 and tally[W_IN_COLLISION] == 0.0:
+        tally[W_COLLISIONS] += 1.0
+    tally[W_IN_COLLISION] = 1.0 if hit >= 0 else 0.0
+    return clearance, hit
+
+
+def yaw_rate_draws(rng: np.random.Generator, max_yaw_rate: float, count: int) -> np.ndarray:
+    """The next `count` yaw rates of the target, uniform in +-max_yaw_rate (no draw when it is 0)."""
+    if max_yaw_rate > 0.0:
+        return rng.uniform(-max_yaw_rate, max_yaw_rate, count)
+    return np.zeros(count)
+
+
+def draws_needed(duration: float, turn_interval: float) -> int:
+    """Yaw-rate draws a run of `duration` [s] uses: the first segment's and one per turn."""
+    return math.floor(duration / turn_interval) + 2
+
+
 class World:
     def __init__(self, scenario: Scenario, robot_radius: float, seed: int) -> None:
         self.scenario = scenario
         self.robot_radius = robot_radius
         self._rng = np.random.default_rng(seed)
+        self.segment = np.zeros(N_SEGMENT)
+        self._draws = np.zeros(0)
         tgt = scenario.target
-        self._seg_t = 0.0
         if tgt is not None:
-            self._seg_x, self._seg_y, self._seg_heading = tgt.x, tgt.y, tgt.heading
-            self._seg_yaw_rate = self._draw_yaw_rate()
+            self._draws = yaw_rate_draws(self._rng, tgt.max_yaw_rate, 64)
+            self.segment[[SEG_X, SEG_Y, SEG_HEADING]] = tgt.x, tgt.y, tgt.heading
+            self.segment[SEG_YAW_RATE] = self._draws[0]
+            self.segment[SEG_NEXT_DRAW] = 1
         self.time = 0.0
-        self.collision_count = 0
-        self._in_collision = False
+        self.tally = np.zeros(N_TALLY)
         obs = scenario.obstacles
         self._ids = np.array([o.id for o in obs], dtype=int)
         self._p0 = np.array([[o.x, o.y] for o in obs], dtype=float).reshape(-1, 2)
         self._v = np.array([[o.vx, o.vy] for o in obs], dtype=float).reshape(-1, 2)
         self._radius = np.array([o.radius for o in obs], dtype=float)
+        self._positions = np.empty_like(self._p0)
+
+    @property
+    def collision_count(self) -> int:
+        return int(self.tally[W_COLLISIONS])
 
     @property
     def capture_radius(self) -> float:
@@ -78,37 +158,27 @@ class World:
         tgt = self.scenario.target
         return tgt.capture_radius if tgt is not None else 0.0
 
-    def _draw_yaw_rate(self) -> float:
-        w = self.scenario.target.max_yaw_rate
-        return float(self._rng.uniform(-w, w)) if w > 0.0 else 0.0
-
     def advance_to(self, t: float) -> None:
         """Move the world forward to time t [s] (never backwards)."""
         if t < self.time:
             raise ValueError(f"world time cannot go back: {t} < {self.time}")
-        tgt = self.scenario.target
         self.time = t
+        tgt = self.scenario.target
         if tgt is None:
             return
-        interval = tgt.turn_interval
-        while t >= self._seg_t + interval:
-            self._seg_x, self._seg_y, self._seg_heading = arc(
-                self._seg_x, self._seg_y, self._seg_heading, tgt.speed, self._seg_yaw_rate, interval
-            )
-            self._seg_t += interval
-            self._seg_yaw_rate = self._draw_yaw_rate()
+        while not advance_segments(self.segment, self._draws, t, tgt.speed, tgt.turn_interval):
+            self._draws = np.concatenate([self._draws, yaw_rate_draws(self._rng, tgt.max_yaw_rate, len(self._draws))])
 
     def target(self) -> TargetState | None:
         tgt = self.scenario.target
         if tgt is None:
             return None
-        x, y, heading = arc(
-            self._seg_x, self._seg_y, self._seg_heading, tgt.speed, self._seg_yaw_rate, self.time - self._seg_t
-        )
-        return TargetState(x, y, math.remainder(heading, 2 * math.pi), tgt.speed, self._seg_yaw_rate)
+        x, y, heading, _vx, _vy = target_at(self.segment, tgt.speed, self.time)
+        return TargetState(x, y, heading, tgt.speed, float(self.segment[SEG_YAW_RATE]))
 
     def obstacle_positions(self) -> np.ndarray:
-        return self._p0 + self._v * self.time
+        obstacle_positions_at(self._p0, self._v, self.time, self._positions)
+        return self._positions.copy()
 
     def obstacles(self) -> list[ObstacleSpec]:
         """The obstacles now: positions at the world's time, velocities and radii as specified."""
@@ -122,22 +192,12 @@ class World:
         """Collision, clearance and target distance for the robot at (robot_x, robot_y); counts collisions."""
         tgt = self.target()
         target_distance = math.inf if tgt is None else math.hypot(tgt.x - robot_x, tgt.y - robot_y)
-        clearance = math.inf
-        hit_id = -1
-        if len(self._radius):
-            pos = self.obstacle_positions()
-            gaps = np.hypot(pos[:, 0] - robot_x, pos[:, 1] - robot_y) - self._radius - self.robot_radius
-            k = int(np.argmin(gaps))
-            clearance = float(gaps[k])
-            if clearance < 0.0:
-                hit_id = int(self._ids[k])
-        collision = hit_id >= 0
-        if collision and not self._in_collision:
-            self.collision_count += 1
-        self._in_collision = collision
+        obstacle_positions_at(self._p0, self._v, self.time, self._positions)
+        clearance, hit = assess_obstacles(self._positions, self._radius, self.robot_radius, float(robot_x),
+                                          float(robot_y), self.tally)
         return Assessment(
-            collision=collision,
-            collision_obstacle_id=hit_id,
+            collision=hit >= 0,
+            collision_obstacle_id=int(self._ids[hit]) if hit >= 0 else -1,
             clearance=clearance,
             target_distance=target_distance,
             target_reached=tgt is not None and target_distance <= self.scenario.target.capture_radius,

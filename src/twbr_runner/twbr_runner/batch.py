@@ -1,0 +1,259 @@
+"""Batch engine: N robots at once through dynamics, motors, controller, planner and world, without ROS.
+
+Each robot is the headless closed loop of `closed_loop` (the state at step k, the command computed from
+it held until step k+1; the planner and the world's assessment at their own rates), compiled as one
+kernel and run over the robot axis in parallel threads. It calls the very kernels the scalar cores and
+so the nodes call (`dynamics.advance_upright`, `cascade.cascade_compute`, `apf.apf_step`, the world's
+`advance_segments`, `target_at`, `obstacle_positions_at`, `assess_obstacles`, the scenario's
+`command_profile_at`): there is no second copy of an equation to drift apart.
+
+Like the headless closed loop, the batch exchanges every command (lockstep, no lost or stale message) and
+reads an ideal IMU (no noise, no bias). A robot's run ends on its target (end_on_target), its fall, or the
+scenario's duration; finished robots cost nothing while the others run on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+import numpy as np
+
+from twbr_common.jit import kernel
+from twbr_common.params import ConfigError, defaults, validate_all
+from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
+from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
+from twbr_control.cascade import N_STATE as N_CONTROL_STATE
+from twbr_control.cascade import settings_vector as control_vector
+from twbr_control.controller_params import CONTROL_SPECS
+from twbr_control.controller_params import check_consistent as check_controller
+from twbr_planner.apf import N_MEMORY as N_PLANNER_MEMORY
+from twbr_planner.apf import N_OUTPUTS as N_PLANNER_OUTPUTS
+from twbr_planner.apf import PROGRESS_COLUMNS, Q_MODE, Q_OMEGA, Q_V, STUCK, apf_step, progress_capacity
+from twbr_planner.apf import settings_vector as planner_vector
+from twbr_planner.planner_params import APF_SPECS
+from twbr_planner.planner_params import check_consistent as check_planner
+from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
+from twbr_sim.robot_params import P_IMAX, P_KM, P_N, P_ROBOT_RADIUS
+from twbr_sim.scenario import Scenario, command_profile, command_profile_at
+from twbr_sim.simulator import steps_per_publish
+from twbr_sim.world import (
+    N_SEGMENT,
+    N_TALLY,
+    SEG_HEADING,
+    SEG_NEXT_DRAW,
+    SEG_X,
+    SEG_Y,
+    SEG_YAW_RATE,
+    W_COLLISIONS,
+    advance_segments,
+    assess_obstacles,
+    draws_needed,
+    obstacle_positions_at,
+    target_at,
+    yaw_rate_draws,
+)
+
+WORLD_RATE = 20.0  # [Hz] sim_node's default world_rate: collisions and clearance are sampled at it
+PLANNER_RATE = 20.0  # [Hz] planner_node's default rate
+STAMP_SLACK = 1e-9  # [s] a rate's next instant counts as reached this early (float sums of periods)
+
+# Per-robot result columns.
+(Z_REACHED_AT, Z_COLLISIONS, Z_MIN_CLEARANCE, Z_PITCH_MIN, Z_PITCH_MAX, Z_FALLEN, Z_STUCK_STEPS, Z_SIM_TIME,
+ Z_SAMPLES, Z_PHYSICS_STEPS) = range(10)
+N_RESULT = 10
+# Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
+# [m/s], yaw [rad], the controller's wheel torque commands [N*m] and the references [m/s, rad/s].
+TRACE_COLUMNS = ("t", "x_c", "y_c", "pitch", "velocity", "yaw", "left_torque", "right_torque", "velocity_ref",
+                 "yaw_rate_ref")
+N_TRACE = len(TRACE_COLUMNS)
+
+
+@kernel
+def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, world_period, has_target,
+              end_on_target, target_speed, turn_interval, capture_radius, segment, draws, obstacle_start,
+              obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows, result, trace):
+    """One robot's whole run, as run_closed_loop with the planner or the command profile as reference."""
+    work = np.empty((WORK_ROWS, N_STATE))
+    control = np.zeros(N_CONTROL_STATE)
+    control[K_ENABLED] = 1.0
+    control_out = np.empty(N_CONTROL_OUTPUTS)
+    memory = np.zeros(N_PLANNER_MEMORY)
+    ring = np.zeros((ring_rows, PROGRESS_COLUMNS))
+    plan_out = np.empty(N_PLANNER_OUTPUTS)
+    tally = np.zeros(N_TALLY)
+    positions = np.empty_like(obstacle_start)
+    distances = np.empty(radii.shape[0])
+    torque_limit = p[P_N] * p[P_KM] * p[P_IMAX]
+    robot_radius = p[P_ROBOT_RADIUS]
+    record = trace.shape[0] > 0
+
+    step_count = 0
+    fallen = False
+    world_next = 0.0
+    plan_next = 0.0
+    v_ref = 0.0
+    w_ref = 0.0
+    reached_at = math.nan
+    min_clearance = math.inf
+    pitch_min = math.inf
+    pitch_max = -math.inf
+    stuck_steps = 0
+    t = 0.0
+    k = 0
+    for k in range(n_samples):
+        t = step_count * h
+        x = state[S_XC]
+        y = state[S_YC]
+        pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
+        pitch_rate = state[S_THD]
+        if t + STAMP_SLACK >= world_next:  # the world's assessment, at the world rate
+            world_next = t + world_period
+            obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
+            clearance, _hit = assess_obstacles(positions, radii, robot_radius, x, y, tally)
+            min_clearance = min(min_clearance, clearance)
+            if has_target and math.isnan(reached_at):
+                tx, ty, _heading, _vx, _vy = target_at(segment, target_speed, t)
+                if math.hypot(tx - x, ty - y) <= capture_radius:
+                    reached_at = t
+        if has_target:
+            if t + STAMP_SLACK >= plan_next:  # the planner, at its rate, on the world at time t
+                plan_next = t + planner_period
+                tx, ty, _heading, tvx, tvy = target_at(segment, target_speed, t)
+                obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
+                apf_step(a, memory, ring, plan_out, t, x, y, state[S_PSI], state[S_XD], tx, ty, tvx, tvy,
+                         positions, radii, distances)
+                v_ref = plan_out[Q_V]
+                w_ref = plan_out[Q_OMEGA]
+                if plan_out[Q_MODE] == STUCK:
+                    stuck_steps += 1
+        else:
+            v_ref, w_ref = command_profile_at(cmd_times, cmd_speeds, cmd_yaw_rates, t)
+        cascade_compute(c, control, control_out, t, v_ref, w_ref, state[S_XD], state[S_PSID], pitch, pitch_rate,
+                        False)
+        pitch_min = min(pitch_min, pitch)
+        pitch_max = max(pitch_max, pitch)
+        if record:
+            row = trace[k]
+            row[0] = t
+            row[1] = x
+            row[2] = y
+            row[3] = pitch
+            row[4] = state[S_XD]
+            row[5] = state[S_PSI]
+            row[6] = control_out[O_LEFT]
+            row[7] = control_out[O_RIGHT]
+            row[8] = control_out[O_VELOCITY_REF]
+            row[9] = control_out[O_YAW_RATE_REF]
+        if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
+            break
+        left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
+        right = min(max(control_out[O_RIGHT], -torque_limit), torque_limit)
+        fallen = advance_upright(p, state, left, right, h, steps_per_control, work)
+        step_count += steps_per_control
+        if has_target and not advance_segments(segment, draws, step_count * h, target_speed, turn_interval):
+            raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
+    result[Z_REACHED_AT] = reached_at
+    result[Z_COLLISIONS] = tally[W_COLLISIONS]
+    result[Z_MIN_CLEARANCE] = min_clearance
+    result[Z_PITCH_MIN] = pitch_min
+    result[Z_PITCH_MAX] = pitch_max
+    result[Z_FALLEN] = 1.0 if fallen else 0.0
+    result[Z_STUCK_STEPS] = stuck_steps
+    result[Z_SIM_TIME] = t
+    result[Z_SAMPLES] = k + 1
+    result[Z_PHYSICS_STEPS] = step_count
+
+
+@numba.njit(cache=True, parallel=True, nogil=True)
+def _run_robots(params, states, c, a, h, steps_per_control, n_samples, planner_period, world_period, has_target,
+                end_on_target, target_speed, turn_interval, capture_radius, segments, draws, obstacle_start,
+                obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows, results, traces):
+    record = traces.shape[0] > 0
+    for i in numba.prange(params.shape[0]):
+        trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
+        run_robot(params[i], states[i], c, a, h, steps_per_control, n_samples, planner_period, world_period,
+                  has_target, end_on_target, target_speed, turn_interval, capture_radius, segments[i], draws[i],
+                  obstacle_start, obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows,
+                  results[i], trace)
+
+
+@dataclass
+class BatchResult:
+    """Per-robot outcomes (Z_* columns of `table`) and, when recorded, per-sample traces."""
+
+    table: np.ndarray  # (N, N_RESULT)
+    traces: np.ndarray | None  # (N, samples, N_TRACE); rows past a robot's own sample count are unused
+    physics_rate: float
+
+    @property
+    def robot_steps(self) -> int:
+        """Physics steps taken over all robots."""
+        return int(self.table[:, Z_PHYSICS_STEPS].sum())
+
+    def trace(self, robot: int) -> dict[str, np.ndarray]:
+        """One robot's recorded samples by column name."""
+        if self.traces is None:
+            raise ValueError("the batch was run without record=True")
+        n = int(self.table[robot, Z_SAMPLES])
+        return {name: self.traces[robot, :n, j] for j, name in enumerate(TRACE_COLUMNS)}
+
+
+def run_batch(
+    scenario: Scenario,
+    seeds: Sequence[int],
+    params: np.ndarray,
+    control: Mapping[str, Any] | None = None,
+    planner: Mapping[str, Any] | None = None,
+    physics_rate: float = 1000.0,
+    planner_rate: float = PLANNER_RATE,
+    world_rate: float = WORLD_RATE,
+    duration: float | None = None,
+    record: bool = False,
+) -> BatchResult:
+    """Run len(seeds) robots of `scenario`; robot i has the parameter vector params[i] (robot_params) and
+    the world of seeds[i]. Settings default to the parameter tables; `duration` to the scenario's."""
+    n = len(seeds)
+    params = np.ascontiguousarray(params, dtype=float)
+    if n < 1 or params.shape[0] != n:
+        raise ConfigError(f"batch: {n} seeds and {params.shape[0]} parameter rows: need as many, at least 1")
+    control_cfg = check_controller(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})}))
+    planner_cfg = check_planner(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})}))
+    rate = control_cfg["rate"]
+    steps_per_control = steps_per_publish(physics_rate, rate)
+    duration = scenario.duration if duration is None else duration
+    n_samples = round(duration * rate) + 1
+
+    sc = scenario
+    start = initial_state(sc.start_x, sc.start_y, sc.start_yaw, sc.start_pitch)
+    states = np.tile(start, (n, 1))
+    tgt = sc.target
+    segments = np.zeros((n, N_SEGMENT))
+    if tgt is not None:
+        count = draws_needed(duration, tgt.turn_interval)
+        draws = np.stack([yaw_rate_draws(np.random.default_rng(seed), tgt.max_yaw_rate, count) for seed in seeds])
+        segments[:, [SEG_X, SEG_Y, SEG_HEADING]] = tgt.x, tgt.y, tgt.heading
+        segments[:, SEG_YAW_RATE] = draws[:, 0]
+        segments[:, SEG_NEXT_DRAW] = 1
+    else:
+        draws = np.zeros((n, 1))
+    obstacles = sc.obstacles
+    obstacle_start = np.array([[o.x, o.y] for o in obstacles], dtype=float).reshape(-1, 2)
+    obstacle_velocity = np.array([[o.vx, o.vy] for o in obstacles], dtype=float).reshape(-1, 2)
+    radii = np.array([o.radius for o in obstacles], dtype=float)
+    cmd_times, cmd_speeds, cmd_yaw_rates = command_profile(sc)
+    results = np.zeros((n, N_RESULT))
+    traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
+    with numba.parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
+        _run_robots(
+            params, states, control_vector(control_cfg), planner_vector(planner_cfg), 1.0 / physics_rate,
+            steps_per_control, n_samples, 1.0 / planner_rate, 1.0 / world_rate, tgt is not None,
+            sc.end_on_target, tgt.speed if tgt else 0.0, tgt.turn_interval if tgt else 1.0,
+            tgt.capture_radius if tgt else 0.0, segments, draws, obstacle_start, obstacle_velocity, radii,
+            cmd_times, cmd_speeds, cmd_yaw_rates, progress_capacity(planner_cfg["stuck_time"], planner_rate),
+            results, traces,
+        )
+    return BatchResult(results, traces if record else None, physics_rate)
