@@ -22,7 +22,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from twbr_common.jit import kernel
+from twbr_common.jit import kernel, parallel_kernel
 from twbr_common.params import ConfigError, defaults, validate_all
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
@@ -168,7 +168,7 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
     result[Z_PHYSICS_STEPS] = step_count
 
 
-@numba.njit(cache=True, parallel=True, nogil=True)
+@parallel_kernel
 def _run_robots(params, states, c, a, h, steps_per_control, n_samples, planner_period, world_period, has_target,
                 end_on_target, target_speed, turn_interval, capture_radius, segments, draws, obstacle_start,
                 obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows, results, traces):

@@ -7,11 +7,8 @@ import pytest
 
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import (
-    P_CA,
     P_D,
-    P_KI,
     P_L,
-    P_LA,
     P_R,
     P_VMAX,
     robot_params,
@@ -29,9 +26,7 @@ def p():
 
 @pytest.fixture
 def p_frictionless():
-    p = robot_params()
-    p[P_CA] = 0.0
-    return p
+    return robot_params({"wheel_friction": 0.0})
 
 
 def run(p, s, cmd=(0.0, 0.0), seconds=1.0, h=H):
@@ -166,10 +161,10 @@ def test_driver_voltage_is_clamped(p):
     assert dyn.driver_voltage(p, -15.0, 0.0, -100.0) == -p[P_VMAX]
 
 
-def test_back_emf_limits_the_top_wheel_speed(p):
+def test_back_emf_limits_the_top_wheel_speed():
     # With the centre of mass on the axle the body cannot fall, so full torque spins the wheels against
     # the body until back-EMF eats the supply voltage.
-    p[P_L] = 0.0
+    p = robot_params({"com_height": 0.0})
     s = dyn.initial_state()
     run(p, s, cmd=(15.0, 15.0), seconds=3.0)
     relative = (s[dyn.S_XD] / p[P_R]) - s[dyn.S_THD]
@@ -180,8 +175,8 @@ def test_back_emf_limits_the_top_wheel_speed(p):
     assert abs(dyn.wheel_torques(p, s)[0]) < 0.5
 
 
-def test_stiff_motor_is_sub_stepped_not_blown_up(p):
-    p[P_LA] = 1e-5  # electrical pole (R + k_i)/L = 180000 1/s: h*lambda = 180 at 1 kHz
+def test_stiff_motor_is_sub_stepped_not_blown_up():
+    p = robot_params({"armature_inductance": 1e-5})  # electrical pole (R + k_i)/L = 180000 1/s: h*lambda = 180 at 1 kHz
     assert dyn.substeps(p, H) >= 90
     s = dyn.initial_state()
     run(p, s, cmd=(5.0, 5.0), seconds=0.05)
@@ -191,8 +186,7 @@ def test_stiff_motor_is_sub_stepped_not_blown_up(p):
 
 def test_default_motor_needs_no_sub_steps(p):
     assert dyn.substeps(p, H) == 1
-    p[P_KI] = 0.0
-    assert dyn.substeps(p, H) == 1
+    assert dyn.substeps(robot_params({"current_loop_gain": 0.0}), H) == 1
 
 
 def test_batch_steps_equal_single_steps(p):

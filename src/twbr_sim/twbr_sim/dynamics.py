@@ -16,7 +16,22 @@ import math
 import numba
 import numpy as np
 
+from twbr_common.jit import kernel, parallel_kernel
 from twbr_sim.robot_params import (
+    D_A,
+    D_C2,
+    D_CA2_R,
+    D_D_2R,
+    D_DD,
+    D_HALF_D,
+    D_INV_LA,
+    D_INV_NK,
+    D_INV_R,
+    D_MGL,
+    D_ML,
+    D_NK,
+    D_YAW_DAMPING,
+    D_YAW_INERTIA0,
     P_CA,
     P_D,
     P_FALL,
@@ -51,35 +66,31 @@ WORK_ROWS = 5
 # RK4's real-axis stability limit is h*lambda ~ 2.785; sub-step well inside it.
 RK4_SAFE_H_LAMBDA = 2.0
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True)
+_jit = kernel
 
 
 @_jit
 def mechanical_accelerations(p, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right):
     """(x_ddot, pitch_ddot, yaw_ddot) of the 3-DOF model for given wheel torques [N*m]."""
-    g = p[P_G]
-    r = p[P_R]
-    d = p[P_D]
-    l = p[P_L]
-    m_b = p[P_MB]
     s = math.sin(pitch)
     c = math.cos(pitch)
-    dd = p[P_I3] - p[P_I1] - m_b * l * l
-    a = m_b + 2.0 * p[P_MW] + 2.0 * p[P_J] / (r * r)
-    b = m_b * l * c
-    c2 = p[P_I2] + m_b * l * l
-    slip = x_dot / r - pitch_rate
+    dd = p[D_DD]
+    a = p[D_A]
+    ml = p[D_ML]
+    b = ml * c
+    c2 = p[D_C2]
+    slip = x_dot * p[D_INV_R] - pitch_rate
     torque_sum = torque_left + torque_right
-    rhs_x = torque_sum / r - (2.0 * p[P_CA] / r) * slip + m_b * l * (yaw_rate * yaw_rate + pitch_rate * pitch_rate) * s
-    rhs_th = -torque_sum + 2.0 * p[P_CA] * slip - dd * yaw_rate * yaw_rate * s * c + m_b * g * l * s
-    det = a * c2 - b * b
-    x_ddot = (c2 * rhs_x - b * rhs_th) / det
-    pitch_ddot = (a * rhs_th - b * rhs_x) / det
-    yaw_inertia = p[P_I3] + 2.0 * p[P_K] + (p[P_MW] + p[P_J] / (r * r)) * d * d / 2.0 - dd * s * s
+    rhs_x = torque_sum * p[D_INV_R] - p[D_CA2_R] * slip + ml * (yaw_rate * yaw_rate + pitch_rate * pitch_rate) * s
+    rhs_th = -torque_sum + 2.0 * p[P_CA] * slip - dd * yaw_rate * yaw_rate * s * c + p[D_MGL] * s
+    inv_det = 1.0 / (a * c2 - b * b)
+    x_ddot = (c2 * rhs_x - b * rhs_th) * inv_det
+    pitch_ddot = (a * rhs_th - b * rhs_x) * inv_det
+    yaw_inertia = p[D_YAW_INERTIA0] - dd * s * s
     yaw_ddot = (
-        (d / (2.0 * r)) * (torque_right - torque_left)
-        - p[P_CA] * (d * d / (2.0 * r * r)) * yaw_rate
-        - (m_b * l * x_dot - 2.0 * dd * pitch_rate * c) * yaw_rate * s
+        p[D_D_2R] * (torque_right - torque_left)
+        - p[D_YAW_DAMPING] * yaw_rate
+        - (ml * x_dot - 2.0 * dd * pitch_rate * c) * yaw_rate * s
     ) / yaw_inertia
     return x_ddot, pitch_ddot, yaw_ddot
 
@@ -91,10 +102,9 @@ def driver_voltage(p, torque_cmd, current, relative_speed):
     i_ref = T_cmd / (N k) limited to +-I_max; V = R i_ref + back-EMF feed-forward + k_i (i_ref - i),
     limited to +-V_max. `relative_speed` is the wheel's speed relative to the body [rad/s].
     """
-    n_k = p[P_N] * p[P_KM]
     i_max = p[P_IMAX]
-    i_ref = min(max(torque_cmd / n_k, -i_max), i_max)
-    v = p[P_RA] * i_ref + n_k * relative_speed + p[P_KI] * (i_ref - current)
+    i_ref = min(max(torque_cmd * p[D_INV_NK], -i_max), i_max)
+    v = p[P_RA] * i_ref + p[D_NK] * relative_speed + p[P_KI] * (i_ref - current)
     v_max = p[P_VMAX]
     return min(max(v, -v_max), v_max)
 
@@ -102,15 +112,14 @@ def driver_voltage(p, torque_cmd, current, relative_speed):
 @_jit
 def current_rate(p, voltage, current, relative_speed):
     """di/dt [A/s] of the armature: L di/dt + R i = V - k N (gamma_dot - theta_dot)."""
-    return (voltage - p[P_RA] * current - p[P_KM] * p[P_N] * relative_speed) / p[P_LA]
+    return (voltage - p[P_RA] * current - p[D_NK] * relative_speed) * p[D_INV_LA]
 
 
 @_jit
 def wheel_rates(p, x_dot, yaw_rate):
     """(gamma_dot_L, gamma_dot_R) from pure rolling [rad/s]."""
-    half = yaw_rate * p[P_D] / 2.0
-    r = p[P_R]
-    return (x_dot - half) / r, (x_dot + half) / r
+    half = yaw_rate * p[D_HALF_D]
+    return (x_dot - half) * p[D_INV_R], (x_dot + half) * p[D_INV_R]
 
 
 @_jit
@@ -127,7 +136,7 @@ def derivatives(p, s, cmd_left, cmd_right, out):
     i_r = s[S_IR]
     v_l = driver_voltage(p, cmd_left, i_l, rel_l)
     v_r = driver_voltage(p, cmd_right, i_r, rel_r)
-    n_k = p[P_N] * p[P_KM]
+    n_k = p[D_NK]
     x_ddot, pitch_ddot, yaw_ddot = mechanical_accelerations(
         p, x_dot, s[S_TH], pitch_rate, yaw_rate, n_k * i_l, n_k * i_r
     )
@@ -206,7 +215,7 @@ def simulate(p, s, cmd_left, cmd_right, h, n_steps, work):
         rk4_step(p, s, cmd_left, cmd_right, h, work)
 
 
-@numba.njit(cache=True, parallel=True, nogil=True)
+@parallel_kernel
 def step_batch(params, states, commands, h, n_steps):
     """Advance N robots by n_steps each: params (N, N_PARAMS), states (N, N_STATE), commands (N, 2)."""
     n = states.shape[0]
