@@ -1,5 +1,5 @@
-"""The Monte Carlo study: rows per seed, the same with one process or two, bad input refused, an
-interrupted study keeps what finished."""
+"""The Monte Carlo study: rows per seed, the same on the batch engine, the scalar cores in one process or
+two, and a Dask cluster; bad input refused; an interrupted study keeps what finished."""
 
 import csv
 import json
@@ -27,11 +27,12 @@ def course(tmp_path):
     return path
 
 
-def test_rows_do_not_depend_on_the_number_of_processes(course, tmp_path):
+def test_rows_are_the_same_on_every_engine(course, tmp_path):
     study = mc.Study(course, runs=3, perturbation=0.2, first_seed=2)
-    one = mc.run_study(study, tmp_path / "one", workers=1, progress=False)
-    two = mc.run_study(study, tmp_path / "two", workers=2, progress=False)
-    assert one == two
+    one = mc.run_study(study, tmp_path / "one", "scalar", workers=1, progress=False)
+    two = mc.run_study(study, tmp_path / "two", "scalar", workers=2, progress=False)
+    batch = mc.run_study(study, tmp_path / "batch", "batch", chunk=2, progress=False)
+    assert one == two == batch  # every field of every row, exactly
     assert [r["seed"] for r in one] == [2, 3, 4]
     assert all(r["reached"] and not r["fallen"] and r["collisions"] == 0 for r in one)
     assert len({r["time_to_reach_s"] for r in one}) > 1  # seeds move the target and the robot differently
@@ -60,6 +61,8 @@ def test_a_perturbed_robot_is_really_another_robot(course):
     (["--perturb", "1.0"], "invalid perturbation 1: must be in [0, 1)"),
     (["--perturb", "-0.1"], "invalid perturbation -0.1"),
     (["--workers", "0"], "invalid --workers 0"),
+    (["--chunk", "0"], "invalid --chunk 0"),
+    (["--engine", "scalar", "--scheduler", "tcp://127.0.0.1:8786"], "--scheduler runs the batch engine"),
 ])
 def test_bad_input_is_refused_with_a_clear_message(course, tmp_path, capsys, args, message):
     assert mc.main([str(course), "--out", str(tmp_path / "out"), *args]) == mc.EXIT_BAD_INPUT
@@ -75,15 +78,15 @@ def test_an_unknown_scenario_is_refused_naming_the_known_ones(tmp_path, capsys):
 
 
 def test_an_interrupted_study_keeps_the_finished_rows(course, tmp_path, monkeypatch, capsys):
-    real = mc.run_one
+    real = mc.run_chunk
 
-    def run_one(path, seed, perturbation):
-        if seed == 3:
-            raise KeyboardInterrupt
-        return real(path, seed, perturbation)
+    def run_chunk(path, seeds, perturbation):
+        if 3 in seeds:
+            raise KeyboardInterrupt  # Ctrl-C during the second batch
+        return real(path, seeds, perturbation)
 
-    monkeypatch.setattr(mc, "run_one", run_one)
-    assert mc.main([str(course), "-n", "5", "--workers", "1", "--out", str(tmp_path / "out")]) == mc.EXIT_INTERRUPTED
+    monkeypatch.setattr(mc, "run_chunk", run_chunk)
+    assert mc.main([str(course), "-n", "5", "--chunk", "2", "--out", str(tmp_path / "out")]) == mc.EXIT_INTERRUPTED
     (out,) = (tmp_path / "out").iterdir()
     with (out / "runs.csv").open() as f:
         assert [int(r["seed"]) for r in csv.DictReader(f)] == [1, 2]
@@ -91,9 +94,23 @@ def test_an_interrupted_study_keeps_the_finished_rows(course, tmp_path, monkeypa
 
 
 def test_a_study_writes_its_table_summary_and_figure(course, tmp_path):
-    assert mc.main([str(course), "-n", "2", "--workers", "1", "--out", str(tmp_path / "out")]) == 0
+    assert mc.main([str(course), "-n", "2", "--out", str(tmp_path / "out")]) == 0
     (out,) = (tmp_path / "out").iterdir()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["runs"] == 2 and summary["success_rate"] == 1.0 and summary["cores"] >= 1
     assert summary["time_to_reach_s"]["min"] <= summary["time_to_reach_s"]["max"]
     assert (out / "summary.png").stat().st_size > 10_000
+
+
+def test_a_dask_cluster_on_loopback_gives_the_single_process_rows(course, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    study = mc.Study(course, runs=5, perturbation=0.2, first_seed=1)
+    here = mc.run_study(study, tmp_path / "here", "batch", chunk=2, progress=False)
+    with distributed.LocalCluster(host="127.0.0.1", n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        there = mc.run_study(study, tmp_path / "there", scheduler=cluster.scheduler_address, chunk=2,
+                             progress=False)
+    assert there == here
+    with (tmp_path / "there" / "runs.csv").open() as f:
+        assert [int(r["seed"]) for r in csv.DictReader(f)] == [1, 2, 3, 4, 5]

@@ -1,12 +1,18 @@
 """montecarlo: one scenario over many seeds, headless on the cores, optionally with perturbed robots.
 
-    python -m twbr_runner.montecarlo dynamic_obstacles -n 200 --perturb 0.2   # or: make montecarlo N=200
+    python -m twbr_runner.montecarlo dynamic_obstacles -n 1000 --perturb 0.2   # or: make montecarlo N=1000
+    python -m twbr_runner.montecarlo dynamic_obstacles -n 1000 --scheduler tcp://10.0.0.5:8786   # Dask
 
-Each run is the simulator, controller and planner cores in closed loop (twbr_runner.closed_loop), ended
-like the node graph ends it: on the target reached (end_on_target), a fall, or the scenario's duration.
-The world is assessed at the world rate, as sim_node does. With --perturb p every run draws, from its
-seed, a factor in [1 - p, 1 + p] for each of the body and wheel masses, the inertias and the motor
-constant. Runs spread over the machine's cores; each row is written to the CSV as it finishes, so an
+Each run is the simulator, controller and planner (or the scenario's command profile) in closed loop,
+ended like the node graph ends it: on the target reached (end_on_target), a fall, or the scenario's
+duration. The world is assessed at the world rate, as sim_node does. With --perturb p every run draws,
+from its seed, a factor in [1 - p, 1 + p] for each of the body and wheel masses, the inertias and the
+motor constant.
+
+Engines: `batch` (default) runs the seeds in chunks through the batch engine (twbr_runner.batch), whose
+threads use every core; `scalar` runs each seed through the scalar cores (twbr_runner.closed_loop), one
+process per core, as a cross-check. With --scheduler the batch chunks run on a Dask distributed cluster
+(every worker needs twbr installed, as here). Each finished row is written to the CSV at once, so an
 interrupted study keeps them. Writes <out>/<scenario>-<time>/runs.csv, summary.json and summary.png.
 """
 
@@ -30,7 +36,20 @@ from typing import Any
 import numpy as np
 
 from twbr_common.params import ConfigError, defaults
-from twbr_sim.robot_params import ROBOT_SPECS
+from twbr_runner.batch import (
+    PLANNER_RATE,
+    WORLD_RATE,
+    Z_COLLISIONS,
+    Z_FALLEN,
+    Z_MIN_CLEARANCE,
+    Z_PITCH_MAX,
+    Z_PITCH_MIN,
+    Z_REACHED_AT,
+    Z_SIM_TIME,
+    Z_STUCK_STEPS,
+    run_batch,
+)
+from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
@@ -39,8 +58,8 @@ PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "b
 COLUMNS = ("seed", "perturbation", "reached", "time_to_reach_s", "collisions", "min_clearance_m",
            "pitch_min_rad", "pitch_max_rad", "fallen", "stuck_time_s", "sim_time_s",
            *(f"{name}_factor" for name in PERTURBED))
-WORLD_RATE = 20.0  # [Hz] sim_node's default world_rate: collisions and clearance are sampled at it
-PLANNER_RATE = 20.0  # [Hz] planner_node's default rate
+ENGINES = ("batch", "scalar")
+CHUNK = 250  # robots per batch: large enough to keep the threads busy, small enough for a steady progress bar
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
@@ -73,15 +92,53 @@ def perturbation_factors(seed: int, fraction: float) -> dict[str, float]:
     return {name: float(rng.uniform(1.0 - fraction, 1.0 + fraction)) for name in PERTURBED}
 
 
+def perturbed_robot(seed: int, perturbation: float) -> dict[str, float]:
+    """The robot parameters of the run of `seed` that differ from the defaults."""
+    factors = perturbation_factors(seed, perturbation)
+    nominal = defaults(ROBOT_SPECS)
+    return {name: nominal[name] * factors[name] for name in PERTURBED}
+
+
+def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list[dict[str, Any]]:
+    """Runs of the scenario for `seeds` through the batch engine: CSV rows, by seed."""
+    scenario = load_scenario(Path(scenario_path))
+    params = np.stack([robot_params(perturbed_robot(seed, perturbation)) for seed in seeds])
+    table = run_batch(scenario, seeds, params, planner_rate=PLANNER_RATE, world_rate=WORLD_RATE).table
+    rows = []
+    for seed, z in zip(seeds, table, strict=True):
+        reached = not math.isnan(z[Z_REACHED_AT])
+        row = {
+            "seed": seed,
+            "perturbation": perturbation,
+            "reached": reached,
+            "time_to_reach_s": float(z[Z_REACHED_AT]) if reached else None,
+            "collisions": int(z[Z_COLLISIONS]),
+            "min_clearance_m": float(z[Z_MIN_CLEARANCE]) if math.isfinite(z[Z_MIN_CLEARANCE]) else None,
+            "pitch_min_rad": float(z[Z_PITCH_MIN]),
+            "pitch_max_rad": float(z[Z_PITCH_MAX]),
+            "fallen": bool(z[Z_FALLEN]),
+            "stuck_time_s": float(z[Z_STUCK_STEPS]) / PLANNER_RATE,
+            "sim_time_s": float(z[Z_SIM_TIME]),
+        }
+        factors = perturbation_factors(seed, perturbation)
+        row.update({f"{name}_factor": factors[name] for name in PERTURBED})
+        rows.append(row)
+    return rows
+
+
 def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any]:
-    """One run of the scenario on the cores: a CSV row."""
+    """One run of the scenario on the scalar cores (the nodes' classes): a CSV row."""
+    return run_one_traced(scenario_path, seed, perturbation)[0]
+
+
+def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[dict[str, Any], Any]:
+    """run_one, and the run's closed_loop.Trace."""
     from twbr_planner.apf import Mode
     from twbr_runner.closed_loop import planner_reference, run_closed_loop, scenario_reference
 
     scenario = load_scenario(Path(scenario_path))
     factors = perturbation_factors(seed, perturbation)
-    nominal = defaults(ROBOT_SPECS)
-    robot = {name: nominal[name] * factors[name] for name in PERTURBED}
+    robot = perturbed_robot(seed, perturbation)
     planner_log: list = []
     plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
     command = scenario_reference(scenario)
@@ -117,7 +174,7 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
         "sim_time_s": float(trace.t[-1]),
     }
     row.update({f"{name}_factor": factors[name] for name in PERTURBED})
-    return row
+    return row, trace
 
 
 
@@ -139,8 +196,13 @@ def _interrupt(signum: int, _frame: Any) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
-def _run_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
-    """Rows as runs finish, at most `workers` at a time (in this process when workers == 1)."""
+def _chunks(study: Study, size: int) -> list[list[int]]:
+    seeds = list(study.seeds)
+    return [seeds[k:k + size] for k in range(0, len(seeds), size)]
+
+
+def _scalar_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
+    """Rows as scalar runs finish, at most `workers` at a time (in this process when workers == 1)."""
     path = str(study.scenario)
     if workers == 1:
         for seed in study.seeds:
@@ -165,7 +227,43 @@ def _run_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def run_study(study: Study, out_dir: Path, workers: int, progress: bool = True) -> list[dict[str, Any]]:
+def _batch_rows(study: Study, chunk: int) -> Iterator[dict[str, Any]]:
+    """Rows chunk by chunk through the batch engine in this process (its threads use every core)."""
+    for seeds in _chunks(study, chunk):
+        yield from run_chunk(str(study.scenario), seeds, study.perturbation)
+
+
+def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[dict[str, Any]]:
+    """Rows as the batch chunks finish on a Dask distributed cluster."""
+    from distributed import Client, as_completed
+
+    try:
+        client = Client(scheduler, timeout="20s", set_as_default=False)
+    except (OSError, ValueError, TypeError) as e:
+        raise ConfigError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from None
+    try:
+        futures = [client.submit(run_chunk, str(study.scenario), seeds, study.perturbation, pure=False)
+                   for seeds in _chunks(study, chunk)]
+        try:
+            for future in as_completed(futures, loop=client.loop):
+                yield from future.result()
+        finally:
+            client.cancel(futures)
+    finally:
+        client.close()
+
+
+def _run_rows(study: Study, engine: str, workers: int, chunk: int, scheduler: str | None
+              ) -> Iterator[dict[str, Any]]:
+    if scheduler is not None:
+        return _dask_rows(study, chunk, scheduler)
+    if engine == "scalar":
+        return _scalar_rows(study, workers)
+    return _batch_rows(study, chunk)
+
+
+def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int = 1, chunk: int = CHUNK,
+              scheduler: str | None = None, progress: bool = True) -> list[dict[str, Any]]:
     """Run every seed, appending each finished row to out_dir/runs.csv; returns the rows by seed."""
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
@@ -174,7 +272,7 @@ def run_study(study: Study, out_dir: Path, workers: int, progress: bool = True) 
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
         f.flush()
-        for row in _run_rows(study, workers):
+        for row in _run_rows(study, engine, workers, chunk, scheduler):
             writer.writerow(_csv_row(row))
             f.flush()  # a finished run is kept, whatever stops the study
             rows.append(row)
@@ -207,7 +305,7 @@ def _success(row: dict[str, Any]) -> bool:
     return bool(row["reached"]) and not row["fallen"] and not row["collisions"]
 
 
-def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, workers: int) -> dict[str, Any]:
+def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, engine: str) -> dict[str, Any]:
     def stats(values: Iterable[float]) -> dict[str, float] | None:
         a = np.array([v for v in values if v is not None], dtype=float)
         if not len(a):
@@ -231,7 +329,7 @@ def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, workers: 
         "min_clearance_m": stats(r["min_clearance_m"] for r in rows),
         "pitch_abs_max_rad": stats(max(abs(r["pitch_min_rad"]), abs(r["pitch_max_rad"])) for r in rows),
         "wall_time_s": wall_s,
-        "workers": workers,
+        "engine": engine,
         "cores": os.cpu_count(),
     }
 
@@ -273,7 +371,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--perturb", type=float, default=0.0,
                     help="perturb masses, inertias and the motor constant by up to this fraction (0.2: ±20 %%)")
     ap.add_argument("--first-seed", type=int, default=1)
-    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes (default: the cores)")
+    ap.add_argument("--engine", choices=ENGINES, default="batch",
+                    help="batch: the batch engine, threads on every core (default); scalar: the nodes' core classes,"
+                         " one process per core (a cross-check, about 100 times slower)")
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                    help="scalar engine: processes (default: the cores)")
+    ap.add_argument("--chunk", type=int, default=CHUNK, help=f"batch engine: robots per batch (default {CHUNK})")
+    ap.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the batches on the Dask distributed cluster of this scheduler (e.g."
+                         " tcp://127.0.0.1:8786); every worker needs twbr installed")
     ap.add_argument("--out", type=Path, default=Path("runs") / "montecarlo")
     ap.add_argument("--no-figure", action="store_true")
     opts = ap.parse_args(argv)
@@ -281,22 +387,32 @@ def main(argv: list[str] | None = None) -> int:
         study = Study(find_scenario(opts.scenario), opts.runs, opts.perturb, opts.first_seed)
         if opts.workers < 1:
             raise ConfigError(f"invalid --workers {opts.workers}: must be at least 1")
+        if opts.chunk < 1:
+            raise ConfigError(f"invalid --chunk {opts.chunk}: must be at least 1")
+        if opts.scheduler is not None and opts.engine != "batch":
+            raise ConfigError("--scheduler runs the batch engine: leave out --engine scalar")
     except ConfigError as e:
         print(f"montecarlo: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    where = (f"the Dask cluster at {opts.scheduler}" if opts.scheduler else
+             f"{opts.workers} processes (scalar engine)" if opts.engine == "scalar" else
+             f"the batch engine ({os.cpu_count()} cores, {opts.chunk} robots per batch)")
     out_dir = opts.out / f"{study.scenario.stem}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
     print(f"montecarlo: {study.runs} runs of {study.scenario.stem} (seeds {study.seeds.start}.."
-          f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}) on {opts.workers} processes -> {out_dir}",
+          f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}) on {where} -> {out_dir}",
           flush=True)
     started = time.monotonic()
     signal.signal(signal.SIGTERM, _interrupt)
     try:
-        rows = run_study(study, out_dir, opts.workers)
+        rows = run_study(study, out_dir, opts.engine, opts.workers, opts.chunk, opts.scheduler)
+    except ConfigError as e:
+        print(f"\nmontecarlo: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         kept = sum(1 for _ in (out_dir / "runs.csv").open()) - 1
         print(f"\nmontecarlo: interrupted; {kept} finished runs kept in {out_dir / 'runs.csv'}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    summary = summarise(rows, study, time.monotonic() - started, opts.workers)
+    summary = summarise(rows, study, time.monotonic() - started, "dask" if opts.scheduler else opts.engine)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if not opts.no_figure:
         summary_figure(rows, summary, out_dir / "summary.png")

@@ -24,6 +24,11 @@ def scenario_dirs() -> list[Path]:
     return dirs
 
 
+def scenario_names() -> list[str]:
+    """Names of the scenarios find_scenario knows, sorted."""
+    return sorted({p.stem for d in scenario_dirs() if d.is_dir() for p in d.glob("*.yaml")})
+
+
 def find_scenario(value: str) -> Path:
     path = Path(value)
     if path.suffix in (".yaml", ".yml") or os.sep in value:
@@ -34,7 +39,6 @@ def find_scenario(value: str) -> Path:
         candidate = d / f"{value}.yaml"
         if candidate.is_file():
             return candidate
-    known = sorted({p.stem for d in scenario_dirs() if d.is_dir() for p in d.glob("*.yaml")})
-    choices = ", ".join(known) or "(none installed)"
+    choices = ", ".join(scenario_names()) or "(none installed)"
     raise ConfigError(f"invalid parameter 'scenario' = {value!r}: must be a scenario file or one of {choices}")
 

@@ -1,0 +1,72 @@
+"""The batch engine against the scalar cores the nodes use: the same trajectories, robot by robot, on
+every scenario, for several seeds and perturbed robots, and the same outcome whatever else is in the batch."""
+
+import math
+
+import numpy as np
+import pytest
+
+from twbr_common.params import ConfigError
+from twbr_runner import batch
+from twbr_runner import montecarlo as mc
+from twbr_sim.robot_params import robot_params
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario, scenario_names
+
+# (trace column, Trace field): what both record at every control sample.
+COMPARED = (("t", "stamp"), ("pitch", "pitch"), ("velocity", "velocity"), ("left_torque", "left_torque"),
+            ("right_torque", "right_torque"), ("velocity_ref", "velocity_ref"), ("yaw_rate_ref", "yaw_rate_ref"))
+# Floating-point tolerance: the engines call the same compiled kernels in the same order, so they agree
+# to the last bit here; the tolerance only allows a compiler to round a fused operation differently.
+TOL = {"rtol": 1e-12, "atol": 1e-12}
+RUNS = ((1, 0.0), (2, 0.0), (3, 0.2))  # (seed, perturbation)
+
+
+@pytest.mark.parametrize("name", scenario_names())
+def test_batch_trajectories_equal_the_scalar_cores(name):
+    path = find_scenario(name)
+    scenario = load_scenario(path)
+    seeds = [seed for seed, _ in RUNS]
+    params = np.stack([robot_params(mc.perturbed_robot(seed, pert)) for seed, pert in RUNS])
+    result = batch.run_batch(scenario, seeds, params, record=True)
+    for i, (seed, pert) in enumerate(RUNS):
+        row, trace = mc.run_one_traced(str(path), seed, pert)
+        got = result.trace(i)
+        assert len(got["t"]) == len(trace.t), f"{name} seed {seed}: run lengths differ"
+        for column, field in COMPARED:
+            np.testing.assert_allclose(got[column], trace[field], **TOL, err_msg=f"{name} seed {seed} {column}")
+        np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
+        np.testing.assert_allclose(got["y_c"], trace.y_c, **TOL)
+        z = result.table[i]
+        assert bool(z[batch.Z_FALLEN]) == row["fallen"] == trace.fallen
+        if row["time_to_reach_s"] is None:
+            assert math.isnan(z[batch.Z_REACHED_AT])
+        else:
+            assert z[batch.Z_REACHED_AT] == pytest.approx(row["time_to_reach_s"], abs=1e-12)
+
+
+def test_the_runs_are_not_all_alike():
+    # Guards the comparison above against a world that ignores the seed or a robot that ignores its
+    # parameters: seeds move the target differently and a perturbed robot leans differently.
+    scenario = load_scenario(find_scenario("dynamic_obstacles"))
+    params = np.stack([robot_params(mc.perturbed_robot(seed, pert)) for seed, pert in RUNS])
+    table = batch.run_batch(scenario, [1, 2, 3], params).table
+    assert len(set(table[:, batch.Z_REACHED_AT])) == 3
+    assert len(set(table[:, batch.Z_PITCH_MAX])) == 3
+
+
+def test_a_robot_runs_the_same_alone_and_among_others():
+    scenario = load_scenario(find_scenario("dynamic_target"))
+    p = robot_params()
+    many = batch.run_batch(scenario, list(range(1, 41)), np.tile(p, (40, 1))).table
+    alone = batch.run_batch(scenario, [17], p[None, :]).table
+    np.testing.assert_array_equal(many[16], alone[0])
+    assert many[:, batch.Z_SAMPLES].min() < many[:, batch.Z_SAMPLES].max()  # runs of different lengths
+
+
+def test_mismatched_inputs_are_refused():
+    scenario = load_scenario(find_scenario("step"))
+    with pytest.raises(ConfigError, match="2 seeds and 1 parameter rows"):
+        batch.run_batch(scenario, [1, 2], robot_params()[None, :])
+    with pytest.raises(ConfigError, match="rate"):
+        batch.run_batch(scenario, [1], robot_params()[None, :], control={"rate": -5.0})
