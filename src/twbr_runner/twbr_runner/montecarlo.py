@@ -295,13 +295,14 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
 def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]]) -> None:
     width = 30
     filled = round(width * done / total)
-    ok = sum(1 for r in rows if _success(r))
+    ok = sum(1 for r in rows if succeeded(r))
     eta = elapsed / done * (total - done)
     print(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs, {ok} succeeded,"
           f" {elapsed:.0f} s, about {eta:.0f} s left ", end="", file=sys.stderr, flush=True)
 
 
-def _success(row: dict[str, Any]) -> bool:
+def succeeded(row: dict[str, Any]) -> bool:
+    """Reached the target, without a collision or a fall."""
     return bool(row["reached"]) and not row["fallen"] and not row["collisions"]
 
 
@@ -320,7 +321,7 @@ def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, engine: s
         "runs_asked": study.runs,
         "first_seed": study.first_seed,
         "perturbation": study.perturbation,
-        "success_rate": sum(_success(r) for r in rows) / n if n else None,
+        "success_rate": sum(succeeded(r) for r in rows) / n if n else None,
         "reached": sum(bool(r["reached"]) for r in rows),
         "collided": sum(bool(r["collisions"]) for r in rows),
         "fallen": sum(bool(r["fallen"]) for r in rows),

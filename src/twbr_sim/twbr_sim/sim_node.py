@@ -212,6 +212,7 @@ class SimNode(Node):
                 world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
             )
         self._pending_ns = now_ns
+        self._matched = False  # a new state: its command is awaited (lockstep) and its latency measured (both)
 
     def _report_command_stale(self, stale: bool) -> None:
         if stale:
@@ -327,7 +328,6 @@ class SimNode(Node):
                     throttle_duration_sec=1.0,
                 )
             waiting_first = False
-            self._matched = False
             self._step_and_publish()
 
     def _run_realtime(self) -> None:
