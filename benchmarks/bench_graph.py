@@ -15,6 +15,7 @@ and samples each node's resident memory (psutil) every 0.2 s, keeping the larges
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -60,10 +61,8 @@ def run_graph(mode: str, planner: bool, sim_seconds: float, domain: int, log_dir
         deadline = time.monotonic() + 120 + 10 * sim_seconds
         while sim.running and time.monotonic() < deadline:
             for name, proc in procs.items():
-                try:
+                with contextlib.suppress(psutil.NoSuchProcess):
                     rss[name] = max(rss[name], psutil.Process(proc.proc.pid).memory_info().rss)
-                except psutil.NoSuchProcess:
-                    pass
             time.sleep(0.2)
         sim.wait(timeout=10)
     finally:
