@@ -26,10 +26,14 @@ demo: setup
 montecarlo: setup
 	@$(RUN) python -m twbr_runner.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
 
+BENCH_OUT ?= benchmarks/results
 bench: setup
-	@$(RUN) python benchmarks/bench_dynamics.py
-	@$(RUN) python benchmarks/bench_lockstep.py
-	@$(RUN) python benchmarks/bench_control_loop.py
+	@mkdir -p $(BENCH_OUT)
+	@$(RUN) python benchmarks/bench_dynamics.py $(BENCH_OUT)/dynamics.json
+	@$(RUN) python benchmarks/bench_batch.py --json $(BENCH_OUT)/batch.json
+	@$(RUN) python benchmarks/bench_graph.py --json $(BENCH_OUT)/graph.json
+	@$(RUN) python benchmarks/bench_lockstep.py --json $(BENCH_OUT)/lockstep.json
+	@$(RUN) python benchmarks/bench_control_loop.py --json $(BENCH_OUT)/control_loop.json
 
 lint: setup
 	@$(RUN) ruff check src test tools benchmarks
