@@ -60,8 +60,7 @@ class WorldNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _world_time(self) -> float | None:
-        now = self._now()
+    def _world_time(self, now: float) -> float | None:
         if self.sim_time:
             return now if now > 0.0 else None  # no /clock yet
         if self._t0 is None:
@@ -74,11 +73,12 @@ class WorldNode(Node):
             self._robot_xy = (p.x, p.y)
 
     def _tick(self) -> None:
-        t = self._world_time()
+        clock_now = self.get_clock().now()
+        t = self._world_time(clock_now.nanoseconds * 1e-9)
         if t is None or t < self.world.time:
             return
         self.world.advance_to(t)
-        stamp = self.get_clock().now().to_msg()
+        stamp = clock_now.to_msg()  # the instant the world was sampled at, however long the step took
         target = self.world.target()
         if target is not None:
             self.pub_target.publish(target_message(target, stamp, self.frame))
