@@ -27,6 +27,7 @@ from pathlib import Path
 import psutil
 
 from twbr_common.processes import loopback_env, start_node
+from twbr_runner.runner import params_files
 from twbr_sim.run_report import parse_run_report
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,21 +36,14 @@ TARGET_RTF = 3.0
 TARGET_P99_MS = 2.0
 
 
-def params(*names: str) -> list[str]:
-    out = []
-    for name in names:
-        out += ["--params-file", str(CONFIG / name)]
-    return out
-
-
 def run_graph(mode: str, planner: bool, sim_seconds: float, domain: int, log_dir: Path) -> dict:
     env = loopback_env(domain)
-    procs = {"controller": start_node("twbr_control", "controller_node", params("controller.yaml"), env, log_dir,
+    procs = {"controller": start_node("twbr_control", "controller_node", params_files(CONFIG, "controller.yaml"), env, log_dir,
                                       f"controller-{domain}")}
     if planner:
-        procs["planner"] = start_node("twbr_planner", "planner_node", params("planner.yaml"), env, log_dir,
+        procs["planner"] = start_node("twbr_planner", "planner_node", params_files(CONFIG, "planner.yaml"), env, log_dir,
                                       f"planner-{domain}")
-    sim_args = [*params("robot.yaml", "sim.yaml"), "-p", f"mode:={mode}", "-p", f"duration:={sim_seconds}",
+    sim_args = [*params_files(CONFIG, "robot.yaml", "sim.yaml"), "-p", f"mode:={mode}", "-p", f"duration:={sim_seconds}",
                 "-p", f"wait_for_subscribers:={len(procs)}"]
     if planner:
         sim_args += ["-p", "scenario:=dynamic_obstacles"]

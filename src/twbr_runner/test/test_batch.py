@@ -27,7 +27,7 @@ def test_batch_trajectories_equal_the_scalar_cores(name):
     path = find_scenario(name)
     scenario = load_scenario(path)
     seeds = [seed for seed, _ in RUNS]
-    params = np.stack([robot_params(mc.perturbed_robot(seed, pert)) for seed, pert in RUNS])
+    params = np.stack([robot_params(mc.perturbed_robot(mc.perturbation_factors(seed, pert))) for seed, pert in RUNS])
     result = batch.run_batch(scenario, seeds, params, record=True)
     for i, (seed, pert) in enumerate(RUNS):
         row, trace = mc.run_one_traced(str(path), seed, pert)
@@ -49,7 +49,7 @@ def test_the_runs_are_not_all_alike():
     # Guards the comparison above against a world that ignores the seed or a robot that ignores its
     # parameters: seeds move the target differently and a perturbed robot leans differently.
     scenario = load_scenario(find_scenario("dynamic_obstacles"))
-    params = np.stack([robot_params(mc.perturbed_robot(seed, pert)) for seed, pert in RUNS])
+    params = np.stack([robot_params(mc.perturbed_robot(mc.perturbation_factors(seed, pert))) for seed, pert in RUNS])
     table = batch.run_batch(scenario, [1, 2, 3], params).table
     assert len(set(table[:, batch.Z_REACHED_AT])) == 3
     assert len(set(table[:, batch.Z_PITCH_MAX])) == 3

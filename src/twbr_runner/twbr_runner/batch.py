@@ -37,7 +37,7 @@ from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner_params import APF_SPECS
 from twbr_planner.planner_params import check_consistent as check_planner
 from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
-from twbr_sim.robot_params import P_IMAX, P_KM, P_N, P_ROBOT_RADIUS
+from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at
 from twbr_sim.simulator import steps_per_publish
 from twbr_sim.world import (
@@ -87,7 +87,7 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
     tally = np.zeros(N_TALLY)
     positions = np.empty_like(obstacle_start)
     distances = np.empty(radii.shape[0])
-    torque_limit = p[P_N] * p[P_KM] * p[P_IMAX]
+    torque_limit = wheel_torque_limit(p)
     robot_radius = p[P_ROBOT_RADIUS]
     record = trace.shape[0] > 0
 

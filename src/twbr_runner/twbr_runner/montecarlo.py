@@ -92,9 +92,8 @@ def perturbation_factors(seed: int, fraction: float) -> dict[str, float]:
     return {name: float(rng.uniform(1.0 - fraction, 1.0 + fraction)) for name in PERTURBED}
 
 
-def perturbed_robot(seed: int, perturbation: float) -> dict[str, float]:
-    """The robot parameters of the run of `seed` that differ from the defaults."""
-    factors = perturbation_factors(seed, perturbation)
+def perturbed_robot(factors: dict[str, float]) -> dict[str, float]:
+    """The robot parameters, scaled by a run's perturbation factors, that may differ from the defaults."""
     nominal = defaults(ROBOT_SPECS)
     return {name: nominal[name] * factors[name] for name in PERTURBED}
 
@@ -102,10 +101,11 @@ def perturbed_robot(seed: int, perturbation: float) -> dict[str, float]:
 def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list[dict[str, Any]]:
     """Runs of the scenario for `seeds` through the batch engine: CSV rows, by seed."""
     scenario = load_scenario(Path(scenario_path))
-    params = np.stack([robot_params(perturbed_robot(seed, perturbation)) for seed in seeds])
+    factors = [perturbation_factors(seed, perturbation) for seed in seeds]
+    params = np.stack([robot_params(perturbed_robot(f)) for f in factors])
     table = run_batch(scenario, seeds, params, planner_rate=PLANNER_RATE, world_rate=WORLD_RATE).table
     rows = []
-    for seed, z in zip(seeds, table, strict=True):
+    for seed, run_factors, z in zip(seeds, factors, table, strict=True):
         reached = not math.isnan(z[Z_REACHED_AT])
         row = {
             "seed": seed,
@@ -120,8 +120,7 @@ def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list
             "stuck_time_s": float(z[Z_STUCK_STEPS]) / PLANNER_RATE,
             "sim_time_s": float(z[Z_SIM_TIME]),
         }
-        factors = perturbation_factors(seed, perturbation)
-        row.update({f"{name}_factor": factors[name] for name in PERTURBED})
+        row.update({f"{name}_factor": run_factors[name] for name in PERTURBED})
         rows.append(row)
     return rows
 
@@ -138,7 +137,7 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[
 
     scenario = load_scenario(Path(scenario_path))
     factors = perturbation_factors(seed, perturbation)
-    robot = perturbed_robot(seed, perturbation)
+    robot = perturbed_robot(factors)
     planner_log: list = []
     plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
     command = scenario_reference(scenario)

@@ -80,7 +80,8 @@ class RunOptions:
     quiet: bool = False
 
 
-def _params(config: Path, *names: str) -> list[str]:
+def params_files(config: Path, *names: str) -> list[str]:
+    """`--params-file config/<name>` for each name, as ros2 run takes them."""
     out = []
     for name in names:
         out += ["--params-file", str(config / name)]
@@ -94,15 +95,15 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         # The recorder is not in the control loop: on 2 cores it must not delay the planner's cmd_vel.
         NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics],
                  niceness=10),
-        NodeSpec("controller", "twbr_control", "controller_node", _params(config, "controller.yaml"),
+        NodeSpec("controller", "twbr_control", "controller_node", params_files(config, "controller.yaml"),
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
     if scenario.target is not None:
-        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", _params(config, "planner.yaml"),
+        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", params_files(config, "planner.yaml"),
                               recorded=("/cmd_vel", "/planner_state")))
     elif scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
-                              [*_params(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
+                              [*params_files(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
                               recorded=("/cmd_vel",)))
     # The simulator holds t = 0 until every odom subscriber of the graph (recorder, controller, planner)
     # is matched, and, with a planner, waits for its output at every planning instant as well.
@@ -110,7 +111,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     planner_rate = yaml.safe_load((config / "planner.yaml").read_text())["planner_node"]["ros__parameters"].get(
         "rate", 20.0) if planner else 0.0
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
-        *_params(config, "robot.yaml", "sim.yaml"),
+        *params_files(config, "robot.yaml", "sim.yaml"),
         "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
         "-p", "mode:=lockstep", "-p", f"wait_for_subscribers:={3 if planner else 2}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",

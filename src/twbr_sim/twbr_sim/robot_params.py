@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from twbr_common.jit import kernel
 from twbr_common.params import ConfigError, ParamSpec, validate_all
 
 ROBOT_SPECS: tuple[ParamSpec, ...] = (
@@ -101,9 +102,10 @@ def params_dict(p: np.ndarray) -> dict[str, float]:
     return {name: float(p[i]) for i, name in enumerate(ROBOT_PARAM_NAMES)}
 
 
+@kernel
 def wheel_torque_limit(p: np.ndarray) -> float:
-    """Largest wheel torque the driver can command: N k I_max [N*m]."""
-    return float(p[P_N] * p[P_KM] * p[P_IMAX])
+    """Largest wheel torque the driver can command: N k I_max [N*m] (compiled: the batch engine calls it)."""
+    return p[P_N] * p[P_KM] * p[P_IMAX]
 
 
 def top_wheel_speed(p: np.ndarray) -> float:

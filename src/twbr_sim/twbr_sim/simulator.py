@@ -122,19 +122,15 @@ class Simulator:
 
     def advance(self, n_steps: int) -> None:
         """Integrate n_steps physics steps; a fallen robot lies still (no ground contact is modelled)."""
+        # Staleness only grows with time: if the command is stale now or still fresh at the last step, one
+        # command holds for the whole block and one kernel call steps it; otherwise step by step.
         last_step_time = (self.step_count + n_steps - 1) * self.h
-        if self.command_stale or not self.guard.is_stale(last_step_time):
-            # One command holds for the whole block (staleness only grows with time): one kernel call.
+        block = n_steps if self.command_stale or not self.guard.is_stale(last_step_time) else 1
+        for _ in range(n_steps // block):
             if not self.fallen:
                 left, right = self.applied_command()
-                self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, n_steps, self._work)
-            self.step_count += n_steps
-        else:
-            for _ in range(n_steps):  # the command goes stale inside the block: find the step
-                if not self.fallen:
-                    left, right = self.applied_command()
-                    self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, 1, self._work)
-                self.step_count += 1
+                self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, block, self._work)
+            self.step_count += block
         if self.world is not None:
             self.world.advance_to(self.time)
 
