@@ -14,6 +14,7 @@ it directly, on a settings vector (C_*), a memory vector (K_*) and an output vec
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -187,6 +188,11 @@ class CascadeController:
         self.pitch_pid = Pid(PidGains(*self.c[C_PITCH:C_YAW_RATE]), self.k[K_PITCH:K_YAW_RATE])
         self.yaw_rate_pid = Pid(PidGains(*self.c[C_YAW_RATE:]), self.k[K_YAW_RATE:])
         self.k[K_ENABLED] = 1.0 if enabled else 0.0
+
+    def warm_up(self) -> None:
+        """Load the compiled kernel now, on a copy: from numba's cache that takes about 0.5 s, which
+        the first real sample must not pay."""
+        copy.deepcopy(self).compute(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     @property
     def enabled(self) -> bool:

@@ -31,6 +31,7 @@ class ControllerNode(Node):
         cfg = check_consistent({**declare(self, CONTROL_SPECS), **declare(self, NODE_SPECS)})
         self.cfg = cfg
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
+        self.controller.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
         self.odom_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)
         self.imu_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)

@@ -39,6 +39,7 @@ class PlannerNode(Node):
         super().__init__("planner_node")
         self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
         self.core = ApfPlanner(self.cfg)
+        self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.odom_guard = InputGuard(self.cfg["odom_timeout"], limit=POSITION_LIMIT)
         # Stale on arrival, out of order or unstamped: with depth-1 world queues, a bad sample would
         # otherwise replace the good one.

@@ -21,6 +21,8 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -132,10 +134,11 @@ class Progress:
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node("run_scenario_progress", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
+        with _SIGNALS.deferred():
+            rclpy.init(context=self.context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
+            self.node = rclpy.create_node("run_scenario_progress", context=self.context)
+            self.executor = SingleThreadedExecutor(context=self.context)
+            self.executor.add_node(self.node)
         self.sim_time = 0.0
         self.fallen = False
         self.target_reached = False
@@ -147,11 +150,13 @@ class Progress:
         def on_world(msg: WorldStatus) -> None:
             self.target_reached |= msg.target_reached
 
-        self.node.create_subscription(SimStatus, "sim_status", on_status, WORLD_QOS)
-        self.node.create_subscription(WorldStatus, "world_status", on_world, WORLD_QOS)
+        with _SIGNALS.deferred():
+            self.node.create_subscription(SimStatus, "sim_status", on_status, WORLD_QOS)
+            self.node.create_subscription(WorldStatus, "world_status", on_world, WORLD_QOS)
 
     def spin(self, seconds: float) -> None:
-        self.executor.spin_once(timeout_sec=seconds)
+        with _SIGNALS.deferred():
+            self.executor.spin_once(timeout_sec=seconds)
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -165,8 +170,32 @@ class Interrupted(Exception):
         self.signum = signum
 
 
-def _on_signal(signum: int, _frame: Any) -> None:
-    raise Interrupted(signum)
+class _SignalLatch:
+    """SIGINT and SIGTERM become Interrupted, but never inside rclpy: raised while pybind11 converts a
+    message, the exception surfaces as an unrelated error ("Unable to convert call argument")."""
+
+    def __init__(self) -> None:
+        self.pending: int | None = None
+        self._depth = 0
+
+    def handler(self, signum: int, _frame: Any) -> None:
+        if self._depth:
+            self.pending = self.pending or signum
+        else:
+            raise Interrupted(signum)
+
+    @contextmanager
+    def deferred(self) -> Iterator[None]:
+        self._depth += 1
+        try:
+            yield
+        finally:
+            self._depth -= 1
+        if not self._depth and self.pending is not None:
+            raise Interrupted(self.pending)
+
+
+_SIGNALS = _SignalLatch()
 
 
 def _say(opts: RunOptions, text: str, end: str = "\n") -> None:
@@ -198,7 +227,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     _say(opts, f"run_scenario: {scenario.name} (seed {seed}, {scenario.duration:g} s sim time) on ROS_DOMAIN_ID"
                f" {domain} -> {run_dir}")
     procs: dict[str, NodeProcess] = {}
-    previous = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    _SIGNALS.pending = None
+    previous = {s: signal.signal(s, _SIGNALS.handler) for s in (signal.SIGINT, signal.SIGTERM)}
     code, reason = 0, "completed"
     progress: Progress | None = None
     wall_start = time.monotonic()

@@ -33,6 +33,7 @@ class CommandPlayer(Node):
         cfg = declare(self, PLAYER_SPECS)
         self.cfg = cfg
         self.scenario = load_scenario(find_scenario(cfg["scenario"]))
+        command_at(self.scenario, 0.0)  # loads the compiled profile before the publisher exists: no late step
         self.stamped = cfg["enable_stamped_cmd_vel"]
         self.pub = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
         self._last: tuple[float, float] | None = None

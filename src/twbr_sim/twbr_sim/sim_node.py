@@ -57,6 +57,7 @@ class SimNode(Node):
         seed = cfg["seed"] if cfg["seed"] >= 0 else (scenario.seed if scenario else 0)
         self.cfg = cfg
         self.sim = Simulator(robot, cfg, scenario, seed)
+        self.sim.warm_up()  # before any publisher: the first state goes out on time
         self.lockstep = cfg["mode"] == "lockstep"
         self._frame_odom = cfg["odom_frame"]
         self._frame_base = cfg["base_frame"]

@@ -40,6 +40,7 @@ class WorldNode(Node):
         scenario = load_scenario(find_scenario(cfg["scenario"]))
         seed = cfg["seed"] if cfg["seed"] >= 0 else scenario.seed
         self.world = World(scenario, cfg["robot_radius"], seed)
+        self.world.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.frame = cfg["odom_frame"]
         self.sim_time = bool(self.get_parameter("use_sim_time").value)
         self._t0: float | None = None
