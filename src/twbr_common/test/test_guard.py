@@ -82,6 +82,11 @@ def test_drop_report_warns_once_per_period_per_stream_with_the_count(monkeypatch
     report.dropped("imu", "no stamp")  # another stream is not hidden behind odom's throttle
     clock[0] += 1.0
     report.dropped("odom", "no stamp")
+    report.dropped("odom", "no stamp")
+    clock[0] += 1.0
+    report.dropped("odom", "non-finite value")
     assert lines == ["dropped odom: non-finite value", "dropped imu: no stamp",
-                     "dropped odom: no stamp (5 dropped since the last warning)"]
+                     "dropped odom: no stamp (5 dropped since the last warning: 4 non-finite value, 1 no stamp)",
+                     "dropped odom: non-finite value (2 dropped since the last warning: 1 no stamp,"
+                     " 1 non-finite value)"]
     assert g.rejected_total == 5  # the guard keeps the counts; the report only words them

@@ -93,16 +93,18 @@ class InputGuard:
 
 
 class DropReport:
-    """Warns about refused messages at most once per `period` per stream, with the count since the last warning.
+    """Warns about refused messages at most once per `period` per stream, with the count since the last warning
+    by reason.
 
-    rclpy's own throttle is per call site, so one noisy stream would hide the others behind a shared line.
+    rclpy's own throttle is per call site, so one noisy stream would hide the others behind a shared line;
+    and the reason of the one message that triggers a warning alone would hide every other kind of fault.
     """
 
     def __init__(self, warn: Callable[[str], None], period: float = 1.0) -> None:
         self._warn = warn
         self.period = period
         self._last: dict[str, float] = {}
-        self._pending: Counter[str] = Counter()
+        self._pending: dict[str, Counter[str]] = {}
 
     def admit(self, guard: InputGuard, stream: str, stamp: float, values: Iterable[float], now: float) -> bool:
         """Offer a message to its stream's guard; warn (throttled) when it is refused."""
@@ -113,9 +115,13 @@ class DropReport:
         return False
 
     def dropped(self, stream: str, reason: str) -> None:
-        self._pending[stream] += 1
+        reasons = self._pending.setdefault(stream, Counter())
+        reasons[reason] += 1
         now = time.monotonic()
         if now - self._last.get(stream, -math.inf) >= self.period:
             self._last[stream] = now
-            n = self._pending.pop(stream)
-            self._warn(f"dropped {stream}: {reason}" + (f" ({n} dropped since the last warning)" if n > 1 else ""))
+            del self._pending[stream]
+            n = reasons.total()
+            detail = ", ".join(f"{k} {r}" for r, k in reasons.most_common())
+            self._warn(f"dropped {stream}: {reason}" + (f" ({n} dropped since the last warning: {detail})"
+                                                        if n > 1 else ""))

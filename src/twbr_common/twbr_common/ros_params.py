@@ -16,6 +16,7 @@ from rclpy.exceptions import (
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from twbr_common.executor import spin_until_shutdown
 from twbr_common.params import ConfigError, ParamSpec
 
 EXIT_CONFIG_ERROR = 2
@@ -77,7 +78,7 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
         if hasattr(node, "run"):
             node.run()
         else:
-            rclpy.spin(node)
+            spin_until_shutdown(node)
     except ConfigError as e:
         rclpy.logging.get_logger(name).fatal(f"refusing to start: {e}")
         code = EXIT_CONFIG_ERROR

@@ -25,6 +25,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 
+from twbr_common.executor import spin_until_shutdown
 from twbr_runner.bag_writer import BagWriter, qos_profile, typestore_with
 
 # Graph bookkeeping topics rosbag2 skips by default too.
@@ -135,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     node = None
     try:
         node = Recorder(args.output, topics, args.all)
-        rclpy.spin(node)
+        spin_until_shutdown(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

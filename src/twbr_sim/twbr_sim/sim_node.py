@@ -13,13 +13,13 @@ import time
 import numpy as np
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
+from twbr_common.executor import new_executor
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.guard import DropReport, Verdict
 from twbr_common.params import ConfigError
@@ -275,7 +275,7 @@ class SimNode(Node):
         self._wall_start: float | None = None
         self._exchanges = 0
         # One executor for the whole run: this node drives its own loop and spins only between steps.
-        self._executor = SingleThreadedExecutor(context=self.context)
+        self._executor = new_executor(self.context)
         self._executor.add_node(self)
         self._wait_for_subscribers()
         if self.lockstep:
