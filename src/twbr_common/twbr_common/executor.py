@@ -18,6 +18,8 @@ import rclpy
 from rclpy.context import Context
 from rclpy.executors import Executor, SingleThreadedExecutor
 
+from twbr_common.params import ConfigError
+
 ENV = "TWBR_EXECUTOR"
 CHOICES = ("events", "single")
 
@@ -25,7 +27,7 @@ CHOICES = ("events", "single")
 def executor_kind() -> str:
     kind = os.environ.get(ENV, "events")
     if kind not in CHOICES:
-        raise ValueError(f"{ENV}={kind!r}: must be one of {', '.join(CHOICES)}")
+        raise ConfigError(f"invalid environment variable {ENV} = {kind!r}: must be one of {', '.join(CHOICES)}")
     return kind
 
 

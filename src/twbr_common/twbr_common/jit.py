@@ -9,11 +9,51 @@ Of fastmath's liberties only `contract` is taken: a*b + c may become one fused m
 faster and rounds once instead of twice. Nothing assumes away NaN or inf, so the guards' and the fall
 checks' comparisons keep their meaning. A machine without FMA rounds differently in the last bit, so
 runs are bit-identical on one machine, not across machines.
+
+numba invalidates a cached kernel when its own file changes, not when a kernel it calls (and inlined)
+changes in another file: the batch engine would keep running yesterday's controller. So the cache lives
+in a directory named by a digest of every twbr package's source, under ~/.cache/twbr/numba (or
+$XDG_CACHE_HOME/twbr/numba); NUMBA_CACHE_DIR, when set, wins.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
 import numba
+
+PACKAGES = ("twbr_common", "twbr_sim", "twbr_control", "twbr_planner", "twbr_runner")
+
+
+def source_digest(package_dirs: Iterable[Path]) -> str:
+    """A digest of the Python files directly in each directory (names and contents)."""
+    h = hashlib.sha256()
+    for directory in package_dirs:
+        for path in sorted(Path(directory).glob("*.py")):
+            h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def _package_dirs() -> list[Path]:
+    dirs = []
+    for name in PACKAGES:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.submodule_search_locations:
+            dirs += [Path(d) for d in spec.submodule_search_locations]
+    return dirs
+
+
+def cache_dir() -> Path:
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "twbr" / "numba" / source_digest(_package_dirs())
+
+
+if not os.environ.get("NUMBA_CACHE_DIR"):
+    numba.config.CACHE_DIR = str(cache_dir())
 
 FASTMATH = {"contract"}
 kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True)
