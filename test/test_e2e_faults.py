@@ -4,6 +4,7 @@ killed controller. Runs use a short course (test/scenarios/fault_course.yaml, ab
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import signal
@@ -11,7 +12,9 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -28,11 +31,11 @@ RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 SIM_PARAMS = ("robot.yaml", "sim.yaml")
 
 
-def course_on_the_cores() -> dict:
-    """The course run headless by the same cores, without DDS: what an undisturbed run gives."""
-    from twbr_runner.montecarlo import run_one
+def course_on_the_cores() -> tuple[dict, Any]:
+    """The course run headless by the same cores, without DDS: what an undisturbed run gives, and its path."""
+    from twbr_runner.montecarlo import run_one_traced
 
-    return run_one(str(COURSE), load_scenario(COURSE).seed, perturbation=0.0)
+    return run_one_traced(str(COURSE), load_scenario(COURSE).seed, perturbation=0.0)
 
 
 def injector(env: dict[str, str], log_dir: Path, *params: str) -> NodeProcess:
@@ -85,14 +88,26 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
     assert all(m["messages_refused"].get(t, 0) > 0 for t in ("/odom", "/target", "/obstacles", "/planner_state"))
 
     # The run is the undisturbed one: the cores' run of the same course, within the graph's own spread.
-    core = course_on_the_cores()
+    core, path = course_on_the_cores()
     assert m["reached"] and m["collisions"] == 0 and not m["fallen"], m
     assert m["lockstep_timeouts"] == 0
     # No garbage made cmd_vel go stale. Only the state at t = 0 may be controlled before the planner's first
     # cmd_vel arrives: the two answer that state at once, in whichever order the executors take it.
     states = read_messages(run_dir / "bag", ["/controller_state"])["/controller_state"]
     assert all(_t(s) == 0.0 for _, s in states if s.cmd_vel_stale), m["cmd_vel_stale_samples"]
-    assert m["time_to_reach_s"] == pytest.approx(core["time_to_reach_s"], abs=1.0)
+    # The path, each second until 2 s before the cores reach the target, is the cores' path within 5 cm
+    # (measured: 2 mm until 9 s, 1-2 cm through the stuck episode and at 20 s). The course ends in a chase
+    # that amplifies centimetres: a pass 6 cm wide of the capture radius circles the target for 2-5 s more,
+    # so the time to reach is bounded, not matched.
+    odom: dict[float, Any] = {}
+    for _, o in read_messages(run_dir / "bag", ["/odom"])["/odom"]:
+        odom.setdefault(_t(o), o.pose.pose.position)  # the simulator's: garbage with an old stamp comes later
+    t_core, x_core, y_core = (np.asarray(a) for a in (path.t, path.x_c, path.y_c))
+    for second in np.arange(1.0, core["time_to_reach_s"] - 2.0):
+        i = int(np.argmin(np.abs(t_core - second)))
+        p = odom[float(second)]
+        assert math.hypot(p.x - x_core[i], p.y - y_core[i]) < 0.05, second
+    assert core["time_to_reach_s"] - 1.0 <= m["time_to_reach_s"] <= core["time_to_reach_s"] + 6.0
     assert m["min_clearance_m"] == pytest.approx(core["min_clearance_m"], abs=0.05)
     assert m["pitch_min_rad"] == pytest.approx(core["pitch_min_rad"], abs=0.002)
     assert m["pitch_max_rad"] == pytest.approx(core["pitch_max_rad"], abs=0.002)

@@ -15,7 +15,6 @@ import numpy as np
 from geometry_msgs.msg import Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import rpy_from_quaternion
@@ -28,7 +27,6 @@ from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
 from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent
 
-LATEST_WORLD_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE)
 FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
 # Arrow length per unit of force: the direction is what steers, the length only has to be readable.
 FORCE_SCALE = 0.2
@@ -55,10 +53,12 @@ class PlannerNode(Node):
         self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
         self.pub_state = self.create_publisher(PlannerState, "planner_state", SENSOR_PUB_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, "planner_markers", WORLD_QOS)
-        # World topics first, and only their latest sample kept: after a stall the executor hands over the
-        # newest target and obstacles before the odom that triggers planning, never a queued old one.
-        self.create_subscription(Odometry, "target", self._on_target, LATEST_WORLD_QOS)
-        self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, LATEST_WORLD_QOS)
+        # The executor hands messages over in arrival order, and a simulator publishes the world of an
+        # instant before its odom: every world sample queued before the odom that triggers planning is
+        # taken first, the newest valid one kept. A queue of one would let a bad message that arrives
+        # after a good one evict it.
+        self.create_subscription(Odometry, "target", self._on_target, WORLD_QOS)
+        self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.get_logger().info(
             f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"

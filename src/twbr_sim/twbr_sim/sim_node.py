@@ -99,6 +99,7 @@ class SimNode(Node):
         self._tf_due = Decimator(cfg["tf_rate"])
         self._clock_due = Decimator(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"])
         self._world_due = Decimator(cfg["world_rate"])
+        self._status_due = Decimator(cfg["world_rate"])
         self._marker_due = Decimator(cfg["marker_rate"])
         self.get_logger().info(
             f"{cfg['mode']} simulation at {cfg['physics_rate']:g} Hz, state every"
@@ -141,13 +142,18 @@ class SimNode(Node):
         return True
 
     # --- outputs ------------------------------------------------------------------------------
-    def publish_state(self) -> None:
+    def publish_control_state(self) -> None:
+        """What the controller and the planner act on, first, so their answers are not held up: the clock,
+        the world when due (before odom, so a planner triggered by odom has the world of the same
+        instant), odom and imu."""
         sim = self.sim
         now_ns = sim.step_count * self._step_ns
         stamp = to_stamp(now_ns)
         self._published_at = time.perf_counter()
         if self._clock_due.due(sim.time):
             self.pub_clock.publish(Clock(clock=stamp))
+        if self.hosting_world and self._world_due.due(sim.time):
+            self.publish_world(stamp)
         s = sim.state
         q = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
 
@@ -180,7 +186,14 @@ class SimNode(Node):
         ):
             cov[0] = cov[4] = cov[8] = std * std
         self.pub_imu.publish(imu)
+        self._pending_ns = now_ns
+        self._matched = False  # a new state: its command is awaited (lockstep) and its latency measured (both)
 
+    def publish_telemetry(self) -> None:
+        """Everything else about the state just published: joints, tf, status, markers."""
+        sim = self.sim
+        stamp = to_stamp(self._pending_ns)
+        s = sim.state
         joints = JointState()
         joints.header.stamp = stamp
         joints.name = WHEEL_JOINTS
@@ -196,24 +209,21 @@ class SimNode(Node):
             tf.header.frame_id = self._frame_odom
             tf.child_frame_id = self._frame_base
             tr = tf.transform.translation
-            tr.x, tr.y, tr.z = pose.position.x, pose.position.y, pose.position.z
-            tf.transform.rotation = pose.orientation
+            tr.x, tr.y, tr.z = s[dyn.S_XC], s[dyn.S_YC], sim.p[P_R]
+            r = tf.transform.rotation
+            r.x, r.y, r.z, r.w = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
             self.pub_tf.publish(TFMessage(transforms=[tf]))
         flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
         if self._status_flags is not None and flags[2] != self._status_flags[2]:
             self._report_command_stale(sim.command_stale)
-        if self._world_due.due(t) or flags != self._status_flags:
+        if self._status_due.due(t) or flags != self._status_flags:
             self._status_flags = flags
             self.pub_status.publish(self.status_message(stamp))
-            if self.hosting_world:
-                self.publish_world(stamp)
         if self.hosting_world and self._marker_due.due(t):
             world = sim.world
             self.pub_markers.publish(
                 world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
             )
-        self._pending_ns = now_ns
-        self._matched = False  # a new state: its command is awaited (lockstep) and its latency measured (both)
 
     def _report_command_stale(self, stale: bool) -> None:
         if stale:
@@ -298,19 +308,18 @@ class SimNode(Node):
             f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}{latency}"
         )
 
-    def _step_and_publish(self) -> None:
+    def _step(self) -> None:
         if self._wall_start is None:
             self._wall_start = time.monotonic()
             self._sim_start = self.sim.time
         self.sim.advance(self.sim.steps_per_publish)
         self._exchanges += 1
-        self.publish_state()
 
     def _run_lockstep(self) -> None:
         executor = self._executor
         timeout = self.cfg["lockstep_timeout"]
         waiting_first = self.cfg["wait_for_first_command"]
-        self.publish_state()
+        self.publish_control_state()
         while self.context.ok() and not self._finished():
             deadline = time.monotonic() + timeout
             while not self._answered() and self.context.ok():
@@ -320,7 +329,7 @@ class SimNode(Node):
                 executor.spin_once(timeout_sec=remaining)
             if not self._answered():
                 if waiting_first and self.sim.step_count == 0:
-                    self.publish_state()  # nobody has answered yet: offer the initial state again
+                    self.publish_control_state()  # nobody has answered yet: offer the initial state again
                     continue
                 self.sim.lockstep_timeouts += 1
                 self.get_logger().warning(
@@ -329,20 +338,41 @@ class SimNode(Node):
                     throttle_duration_sec=1.0,
                 )
             waiting_first = False
-            self._step_and_publish()
+            # Telemetry once the state is answered: it no longer delays the handling of the answer.
+            self.publish_telemetry()
+            self._step()
+            self.publish_control_state()
+        self.publish_telemetry()
 
     def _run_realtime(self) -> None:
+        """Each period: the state, then the controller's answer, then telemetry in the slack.
+
+        A real driver serves its control loop first: telemetry (world, markers: milliseconds of Python
+        at 5-20 Hz) published before the answer is handled would delay it. It waits for the answer at
+        most half a period.
+        """
         period = 1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"])
         executor = self._executor
-        self.publish_state()
+        self.publish_control_state()
+        telemetry_by: float | None = time.monotonic() + 0.5 * period
         next_tick = time.monotonic() + period
         while self.context.ok() and not self._finished():
-            executor.spin_once(timeout_sec=max(0.0, next_tick - time.monotonic()))
+            if telemetry_by is not None and (self._matched or time.monotonic() >= telemetry_by):
+                self.publish_telemetry()
+                telemetry_by = None
+            wake = next_tick if telemetry_by is None else telemetry_by
+            executor.spin_once(timeout_sec=max(0.0, wake - time.monotonic()))
             now = time.monotonic()
             if now >= next_tick:
-                self._step_and_publish()
+                if telemetry_by is not None:
+                    self.publish_telemetry()
+                self._step()
+                self.publish_control_state()
+                telemetry_by = now + 0.5 * period
                 # Keep the schedule, but never try to catch up more than one period after a stall.
                 next_tick = max(next_tick + period, now - period)
+        if telemetry_by is not None:
+            self.publish_telemetry()
 
 
 def main(args: list[str] | None = None) -> int:
