@@ -96,11 +96,16 @@ def main() -> int:
         result[label] = {key: statistics.median(r[key] for r in rows) for key in rows[0]}
     rtf = result["lockstep_controller"]["real_time_factor"]
     p99 = result["realtime_navigation"]["latency_p99_ms"]
+    p99_lockstep = result["lockstep_controller"]["latency_p99_ms"]
     print(f"medians over {args.runs} runs ({os.cpu_count()} cores): lockstep real-time factor {rtf:.2f} (sim +"
-          f" controller; {result['lockstep_navigation']['real_time_factor']:.2f} with the planner); realtime control"
-          f" latency median {result['realtime_navigation']['latency_median_ms']:.3f} ms, p99 {p99:.3f} ms")
+          f" controller; {result['lockstep_navigation']['real_time_factor']:.2f} with the planner); control latency"
+          f" p99 lockstep {p99_lockstep:.3f} ms (sim + controller), realtime median"
+          f" {result['realtime_navigation']['latency_median_ms']:.3f} ms, p99 {p99:.3f} ms (navigation graph)")
+    # The issue lists the latency target under the lockstep graph and asks for the latency in realtime mode:
+    # both readings are printed.
     print(f"targets: real-time factor >= {TARGET_RTF:g}: {'met' if rtf >= TARGET_RTF else 'NOT met'};"
-          f" latency p99 < {TARGET_P99_MS:g} ms: {'met' if p99 < TARGET_P99_MS else 'NOT met'}")
+          f" latency p99 < {TARGET_P99_MS:g} ms: lockstep {'met' if p99_lockstep < TARGET_P99_MS else 'NOT met'},"
+          f" realtime {'met' if p99 < TARGET_P99_MS else 'NOT met'}")
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
     return 0
