@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Pose, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -63,6 +63,7 @@ class SimNode(Node):
         self._frame_base = cfg["base_frame"]
         self._step_ns = round(1e9 / cfg["physics_rate"])
         self._pending_ns: int | None = None
+        self._pose: Pose | None = None  # of the state pending: /tf repeats it
         self._matched = False
         self._commands_received = 0
         self._status_flags: tuple | None = None
@@ -168,6 +169,7 @@ class SimNode(Node):
         odom.twist.twist.angular.y = s[dyn.S_THD]
         odom.twist.twist.angular.z = s[dyn.S_PSID]
         self.pub_odom.publish(odom)
+        self._pose = pose
 
         reading = sim.imu()
         imu = Imu()
@@ -208,10 +210,9 @@ class SimNode(Node):
             tf.header.stamp = stamp
             tf.header.frame_id = self._frame_odom
             tf.child_frame_id = self._frame_base
-            tr = tf.transform.translation
-            tr.x, tr.y, tr.z = s[dyn.S_XC], s[dyn.S_YC], sim.p[P_R]
-            r = tf.transform.rotation
-            r.x, r.y, r.z, r.w = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
+            tr, pose = tf.transform.translation, self._pose
+            tr.x, tr.y, tr.z = pose.position.x, pose.position.y, pose.position.z
+            tf.transform.rotation = pose.orientation
             self.pub_tf.publish(TFMessage(transforms=[tf]))
         flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
         if self._status_flags is not None and flags[2] != self._status_flags[2]:
@@ -347,9 +348,9 @@ class SimNode(Node):
     def _run_realtime(self) -> None:
         """Each period: the state, then the controller's answer, then telemetry in the slack.
 
-        A real driver serves its control loop first: telemetry (world, markers: milliseconds of Python
-        at 5-20 Hz) published before the answer is handled would delay it. It waits for the answer at
-        most half a period.
+        A real driver serves its control loop first: telemetry (markers are milliseconds of Python at
+        5 Hz) published before the answer is handled would delay it. It waits for the answer at most
+        half a period.
         """
         period = 1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"])
         executor = self._executor
