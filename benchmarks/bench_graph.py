@@ -1,15 +1,19 @@
-"""The node graph's own speed: lockstep real-time factor, realtime control latency, resident memory per node.
+"""The node graph's own speed: lockstep real-time factor, control latency, resident memory per node.
 
 Starts the nodes as separate processes over DDS (loopback, a domain of its own), as a user would in
-several terminals, without a recorder:
-- lockstep, sim_node + controller_node (physics 1 kHz, controller 200 Hz): the real-time factor and the
-  exchanges per second the simulator reports; target >= 3;
-- lockstep, the navigation graph (sim_node + controller_node + planner_node on dynamic_obstacles, the
-  simulator also waiting for the planner's 20 Hz answers);
-- realtime, the navigation graph at real-time factor 1: the control latency the simulator measures, from
-  publishing a state to receiving the command computed from it (median and 99th percentile); target
-  p99 < 2 ms;
-and samples each node's resident memory (psutil) every 0.2 s, keeping the largest.
+several terminals, without a recorder. Graphs (physics 1 kHz, controller 200 Hz):
+- lockstep_controller: sim_node + controller_node; the real-time factor (target >= 3) and the control
+  latency (target p99 < 2 ms);
+- lockstep_navigation: + planner_node on dynamic_obstacles, the simulator also waiting for its 20 Hz
+  answers;
+- realtime_echo: sim_node at real-time factor 1 answered by torque_driver's echo (zero torque at once, no
+  controller): the floor of the realtime latency on this machine;
+- realtime_controller, realtime_navigation: the same graphs in realtime at real-time factor 1;
+- realtime_controller_pinned: sim_node on CPU 0 and controller_node on CPU 1 (parameter cpu_affinity).
+The control latency is what the simulator measures: from publishing a state to receiving the command
+computed from it (median and 99th percentile over the run). Each round runs every graph once, so a
+slow spell of the machine falls on all of them alike; the figures are medians over the rounds. Each
+node's resident memory is sampled (psutil) every 0.2 s, keeping the largest.
 """
 
 from __future__ import annotations
@@ -34,18 +38,38 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config"
 TARGET_RTF = 3.0
 TARGET_P99_MS = 2.0
+# label: (mode, what answers the simulator, CPUs by process or None)
+CONFIGS: dict[str, tuple[str, str, dict[str, int] | None]] = {
+    "lockstep_controller": ("lockstep", "controller", None),
+    "lockstep_navigation": ("lockstep", "navigation", None),
+    "realtime_echo": ("realtime", "echo", None),
+    "realtime_controller": ("realtime", "controller", None),
+    "realtime_navigation": ("realtime", "navigation", None),
+    "realtime_controller_pinned": ("realtime", "controller", {"sim": 0, "controller": 1}),
+}
 
 
-def run_graph(mode: str, planner: bool, sim_seconds: float, domain: int, log_dir: Path) -> dict:
+def run_graph(mode: str, partner: str, pinning: dict[str, int] | None, sim_seconds: float, domain: int,
+              log_dir: Path) -> dict:
     env = loopback_env(domain)
-    procs = {"controller": start_node("twbr_control", "controller_node", params_files(CONFIG, "controller.yaml"), env, log_dir,
-                                      f"controller-{domain}")}
-    if planner:
-        procs["planner"] = start_node("twbr_planner", "planner_node", params_files(CONFIG, "planner.yaml"), env, log_dir,
-                                      f"planner-{domain}")
-    sim_args = [*params_files(CONFIG, "robot.yaml", "sim.yaml"), "-p", f"mode:={mode}", "-p", f"duration:={sim_seconds}",
+
+    def node_args(name: str, *files: str) -> list[str]:
+        pin = ["-p", f"cpu_affinity:=[{pinning[name]}]"] if pinning and name in pinning else []
+        return [*params_files(CONFIG, *files), *pin]
+
+    procs = {}
+    if partner == "echo":
+        procs["echo"] = start_node("twbr_sim", "torque_driver", [*node_args("echo"), "-p", "profile:=echo"], env,
+                                   log_dir, f"echo-{domain}")
+    else:
+        procs["controller"] = start_node("twbr_control", "controller_node", node_args("controller", "controller.yaml"),
+                                         env, log_dir, f"controller-{domain}")
+    if partner == "navigation":
+        procs["planner"] = start_node("twbr_planner", "planner_node", node_args("planner", "planner.yaml"), env,
+                                      log_dir, f"planner-{domain}")
+    sim_args = [*node_args("sim", "robot.yaml", "sim.yaml"), "-p", f"mode:={mode}", "-p", f"duration:={sim_seconds}",
                 "-p", f"wait_for_subscribers:={len(procs)}"]
-    if planner:
+    if partner == "navigation":
         sim_args += ["-p", "scenario:=dynamic_obstacles"]
         if mode == "lockstep":
             sim_args += ["-p", "lockstep_planner_rate:=20.0"]
@@ -70,42 +94,59 @@ def run_graph(mode: str, planner: bool, sim_seconds: float, domain: int, log_dir
             **{f"rss_mib_{name}": value / 2**20 for name, value in rss.items()}}
 
 
+def summarise(rows: list[dict]) -> dict:
+    """Medians over the rounds, and the range of the latency's p99 (it moves most between rounds)."""
+    out = {key: statistics.median(r[key] for r in rows) for key in rows[0]}
+    p99 = [r["latency_p99_ms"] for r in rows]
+    out["latency_p99_ms_min"], out["latency_p99_ms_max"] = min(p99), max(p99)
+    out["runs_with_p99_under_target"] = sum(x < TARGET_P99_MS for x in p99)
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sim-seconds", type=float, default=20.0)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--only", nargs="+", choices=CONFIGS, help="measure only these graphs (no summary)")
     args = ap.parse_args()
     base = int(os.environ.get("ROS_DOMAIN_ID", "150"))
     log_dir = Path(tempfile.mkdtemp(prefix="twbr-bench-graph-"))
-    configs = {"lockstep_controller": ("lockstep", False), "lockstep_navigation": ("lockstep", True),
-               "realtime_controller": ("realtime", False), "realtime_navigation": ("realtime", True)}
+    configs = {label: CONFIGS[label] for label in args.only or CONFIGS}
     result: dict = {"cores": os.cpu_count(), "physics_rate_hz": 1000, "controller_rate_hz": 200,
                     "sim_seconds": args.sim_seconds, "runs": args.runs}
+    # Not measured: a short run that loads (or, after an edit, compiles and caches) every node's kernels.
+    run_graph("lockstep", "navigation", None, 1.0, base, log_dir)
+    rows: dict[str, list[dict]] = {label: [] for label in configs}
     domain = base
-    for label, (mode, planner) in configs.items():
-        rows = []
-        for k in range(args.runs):
+    for k in range(args.runs):
+        for label, (mode, partner, pinning) in configs.items():
             domain = (domain + 1) % 230
-            row = run_graph(mode, planner, args.sim_seconds, domain, log_dir)
-            rows.append(row)
-            print(f"{label} run {k + 1}: real-time factor {row['real_time_factor']:.2f},"
+            row = run_graph(mode, partner, pinning, args.sim_seconds, domain, log_dir)
+            rows[label].append(row)
+            print(f"round {k + 1} {label}: real-time factor {row['real_time_factor']:.2f},"
                   f" {row['exchanges_per_s']:.0f} exchanges/s, latency median {row['latency_median_ms']:.3f} ms,"
                   f" p99 {row['latency_p99_ms']:.3f} ms, RSS "
-                  + ", ".join(f"{k[8:]} {v:.0f} MiB" for k, v in row.items() if k.startswith("rss_mib_")))
-        result[label] = {key: statistics.median(r[key] for r in rows) for key in rows[0]}
+                  + ", ".join(f"{key[8:]} {v:.0f} MiB" for key, v in row.items() if key.startswith("rss_mib_")),
+                  flush=True)
+    for label, label_rows in rows.items():
+        result[label] = summarise(label_rows)
+    if args.only:
+        return 0
     rtf = result["lockstep_controller"]["real_time_factor"]
-    p99 = result["realtime_navigation"]["latency_p99_ms"]
-    p99_lockstep = result["lockstep_controller"]["latency_p99_ms"]
-    print(f"medians over {args.runs} runs ({os.cpu_count()} cores): lockstep real-time factor {rtf:.2f} (sim +"
-          f" controller; {result['lockstep_navigation']['real_time_factor']:.2f} with the planner); control latency"
-          f" p99 lockstep {p99_lockstep:.3f} ms (sim + controller), realtime median"
-          f" {result['realtime_navigation']['latency_median_ms']:.3f} ms, p99 {p99:.3f} ms (navigation graph)")
+    print(f"medians over {args.runs} rounds ({os.cpu_count()} cores): lockstep real-time factor {rtf:.2f} (sim +"
+          f" controller; {result['lockstep_navigation']['real_time_factor']:.2f} with the planner)")
+    for label in CONFIGS:
+        r = result[label]
+        print(f"  control latency {label}: median {r['latency_median_ms']:.3f} ms, p99 {r['latency_p99_ms']:.3f} ms"
+              f" (rounds {r['latency_p99_ms_min']:.3f}-{r['latency_p99_ms_max']:.3f}; under"
+              f" {TARGET_P99_MS:g} ms in {r['runs_with_p99_under_target']} of {args.runs})")
+    p99 = {label: result[label]["latency_p99_ms"] for label in ("lockstep_controller", "realtime_controller")}
     # The issue lists the latency target under the lockstep graph and asks for the latency in realtime mode:
-    # both readings are printed.
+    # both readings are judged.
     print(f"targets: real-time factor >= {TARGET_RTF:g}: {'met' if rtf >= TARGET_RTF else 'NOT met'};"
-          f" latency p99 < {TARGET_P99_MS:g} ms: lockstep {'met' if p99_lockstep < TARGET_P99_MS else 'NOT met'},"
-          f" realtime {'met' if p99 < TARGET_P99_MS else 'NOT met'}")
+          f" latency p99 < {TARGET_P99_MS:g} ms: lockstep {'met' if p99['lockstep_controller'] < TARGET_P99_MS else 'NOT met'},"
+          f" realtime {'met' if p99['realtime_controller'] < TARGET_P99_MS else 'NOT met'}")
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
     return 0

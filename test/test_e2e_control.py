@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -210,6 +211,8 @@ BAD_STARTS = [
     (["-p", "velocity.setpoint_weight:=1.5"], "'velocity.setpoint_weight' = 1.5", "[0, 1]"),
     (["-p", "cmd_vel_timeout:=fast"], "invalid parameter 'cmd_vel_timeout' = 'fast'", "[0.01, 60] s"),
     (["-p", "fall_pitch:=0.1"], "invalid parameter 'max_pitch_ref' = 0.15", "below fall_pitch"),  # inconsistent
+    (["-p", "cpu_affinity:=[4096]"], "invalid parameter 'cpu_affinity' = [4096]", "CPUs this process may use"),
+    (["-p", "cpu_affinity:=1"], "invalid parameter 'cpu_affinity' = 1", "a list of integers in [0, inf)"),
 ]
 
 
@@ -217,6 +220,16 @@ BAD_STARTS = [
 def test_bad_controller_parameters_stop_the_node_with_one_clear_message(launch, args, names, valid):
     assert_refused_at_start(launch("twbr_control", "controller_node", *args, params=("controller.yaml",)),
                             names, valid)
+
+
+def test_cpu_affinity_pins_every_thread_of_the_node(launch, ros):
+    cpu = max(os.sched_getaffinity(0))
+    proc = launch("twbr_control", "controller_node", "-p", f"cpu_affinity:=[{cpu}]", params=("controller.yaml",))
+    assert ros.spin_until(lambda: f"pinned to CPU {cpu}" in proc.output or not proc.running, 30.0), proc.output
+    tasks = Path(f"/proc/{proc.proc.pid}/task")
+    affinities = {tid.name: os.sched_getaffinity(int(tid.name)) for tid in tasks.iterdir()}
+    assert len(affinities) > 3  # DDS's threads, started before the parameter was read, are there too
+    assert all(cpus == {cpu} for cpus in affinities.values()), affinities
 
 
 def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):

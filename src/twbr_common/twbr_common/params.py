@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 
@@ -21,7 +21,8 @@ class ConfigError(ValueError):
 class ParamSpec:
     """One parameter: name, default, unit, description and valid range.
 
-    `low`/`high` bound numbers (inclusive unless `low_open`/`high_open`); `choices` bounds strings.
+    `low`/`high` bound numbers, and each number of a list (inclusive unless `low_open`/`high_open`);
+    `choices` bounds strings; `item` is the type of a list's numbers.
     """
 
     name: str
@@ -33,6 +34,7 @@ class ParamSpec:
     low_open: bool = False
     high_open: bool = False
     choices: tuple[str, ...] | None = None
+    item: type = float
 
     @property
     def kind(self) -> type:
@@ -47,7 +49,10 @@ class ParamSpec:
         if self.kind is str:
             return "a string"
         if self.kind is list:
-            return "a list of numbers"
+            numbers = "integers" if self.item is int else "numbers"
+            if self.low is None and self.high is None:
+                return f"a list of {numbers}"
+            return f"a list of {numbers} in {replace(self, default=self.item(0)).range_text()}"
         fmt = "d" if self.kind is int else "g"  # an int's bound in full: 2147483647, not 2.14748e+09
         lo = "-inf" if self.low is None else format(self.low, fmt)
         hi = "inf" if self.high is None else format(self.high, fmt)
@@ -84,7 +89,7 @@ class ParamSpec:
                 raise self._fail(value, "not a list")
             out = []
             for item in value:
-                out.append(self._check_number(item, float, value))
+                out.append(self._check_number(item, self.item, value))
             return out
         return self._check_number(value, kind, value)
 

@@ -15,9 +15,11 @@ from rclpy.exceptions import (
 )
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from twbr_common.executor import spin_until_shutdown
 from twbr_common.params import ConfigError, ParamSpec
+from twbr_common.process import PROCESS_SPECS, settle_process
 
 EXIT_CONFIG_ERROR = 2
 
@@ -30,10 +32,16 @@ _TYPES = {
 }
 
 
+def _type(spec: ParamSpec) -> int:
+    if spec.kind is list and spec.item is int:
+        return ParameterType.PARAMETER_INTEGER_ARRAY
+    return _TYPES[spec.kind]
+
+
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
     d = ParameterDescriptor(
         name=spec.name,
-        type=_TYPES[spec.kind],
+        type=_type(spec),
         description=spec.describe(),
         read_only=True,
     )
@@ -52,6 +60,8 @@ def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[st
         name = prefix + spec.name
         shown = ParamSpec(**{**spec.__dict__, "name": name})
         default = list(spec.default) if spec.kind is list else spec.default
+        if default == []:  # rclpy takes an empty list for a byte array: declare the type, without a value
+            default = Parameter.Type.INTEGER_ARRAY if spec.item is int else Parameter.Type.DOUBLE_ARRAY
         try:
             param = node.declare_parameter(name, default, descriptor(shown))
         except (InvalidParameterTypeException, InvalidParameterValueException, ParameterException) as e:
@@ -61,20 +71,22 @@ def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[st
                 f"invalid parameter '{name}' = {value!r}: must be {shown.range_text()}"
                 f" ({type(e).__name__})"
             ) from None
-        values[spec.name] = shown.validate(param.value)
+        values[spec.name] = shown.validate(spec.default if param.value is None else param.value)
     return values
 
 
 def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = None) -> int:
     """Init, spin until shutdown, and turn a configuration error into one FATAL line and exit code 2.
 
-    A node with a `run()` method drives its own loop (the lockstep simulator); others are spun.
+    A node with a `run()` method drives its own loop (the lockstep simulator); others are spun. Every
+    node also takes the process parameters of twbr_common.process (cpu_affinity).
     """
     rclpy.init(args=argv if argv is not None else sys.argv)
     node = None
     code = 0
     try:
         node = make_node()
+        settle_process(declare(node, PROCESS_SPECS), node.get_logger().info)
         if hasattr(node, "run"):
             node.run()
         else:

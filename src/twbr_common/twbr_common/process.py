@@ -1,0 +1,62 @@
+"""What every node does to its own process once it is built: the CPUs it runs on, and a frozen heap.
+
+cpu_affinity pins the whole process (the Python thread and every DDS thread) to chosen CPUs, as
+`taskset -c` does and as ros2_control's `cpu_affinity` does for its control thread: on a robot's
+computer, the control loop's processes can then keep CPUs of their own, away from a recorder or a
+planner. A parameter rather than a wrapper, so that it travels in the node's parameter file.
+
+The heap is frozen after start-up (gc.freeze): the ~130,000 objects of imports and compiled kernels are
+never scanned again, so a full collection in the loop walks only what the loop made. Unfrozen, one
+full collection stalled sim_node for 63 ms in the middle of a 20 s realtime run (gc.callbacks).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import os
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from twbr_common.params import ConfigError, ParamSpec
+
+PROCESS_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("cpu_affinity", [], "CPUs this node's process runs on, every thread included (as `taskset -c`"
+              " does), e.g. [1] or [0, 2]; empty: wherever the OS schedules it", low=0, item=int),
+)
+
+
+def check_cpus(cpus: list[int], allowed: set[int], name: str = "cpu_affinity") -> set[int]:
+    """The CPUs asked for, each one this process may run on (a container or taskset may allow fewer)."""
+    outside = sorted(set(cpus) - allowed)
+    if outside:
+        raise ConfigError(f"invalid parameter '{name}' = {cpus} (CPU {outside[0]} is not available): must be"
+                          f" CPUs this process may use, from {','.join(_ranges(sorted(allowed)))}")
+    return set(cpus)
+
+
+def _ranges(cpus: list[int]) -> list[str]:
+    out: list[str] = []
+    for cpu in cpus:
+        if out and cpu == int(out[-1].split("-")[-1]) + 1:
+            out[-1] = f"{out[-1].split('-')[0]}-{cpu}"
+        else:
+            out.append(str(cpu))
+    return out
+
+
+def pin_process(cpus: set[int]) -> None:
+    """Every thread of this process onto `cpus` (sched_setaffinity pins one thread; DDS's already run)."""
+    for tid in os.listdir("/proc/self/task"):
+        with contextlib.suppress(ProcessLookupError):  # a thread that ended meanwhile
+            os.sched_setaffinity(int(tid), cpus)
+
+
+def settle_process(cfg: Mapping[str, Any], log: Callable[[str], Any]) -> None:
+    """Apply the process parameters (PROCESS_SPECS, validated), then freeze the start-up heap."""
+    if cfg["cpu_affinity"]:
+        cpus = check_cpus(cfg["cpu_affinity"], os.sched_getaffinity(0))
+        pin_process(cpus)
+        log(f"pinned to CPU {','.join(_ranges(sorted(cpus)))}")
+    gc.collect()
+    gc.freeze()
