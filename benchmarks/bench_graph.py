@@ -9,7 +9,8 @@ several terminals, without a recorder. Graphs (physics 1 kHz, controller 200 Hz)
 - realtime_echo: sim_node at real-time factor 1 answered by torque_driver's echo (zero torque at once, no
   controller): the floor of the realtime latency on this machine;
 - realtime_controller, realtime_navigation: the same graphs in realtime at real-time factor 1;
-- realtime_controller_pinned: sim_node on CPU 0 and controller_node on CPU 1 (parameter cpu_affinity).
+- realtime_controller_pinned, realtime_navigation_pinned: sim_node (and planner_node) on CPU 0,
+  controller_node on CPU 1 (parameter cpu_affinity).
 The control latency is what the simulator measures: from publishing a state to receiving the command
 computed from it (median and 99th percentile over the run). Each round runs every graph once, so a
 slow spell of the machine falls on all of them alike; the figures are medians over the rounds. Each
@@ -46,6 +47,8 @@ CONFIGS: dict[str, tuple[str, str, dict[str, int] | None]] = {
     "realtime_controller": ("realtime", "controller", None),
     "realtime_navigation": ("realtime", "navigation", None),
     "realtime_controller_pinned": ("realtime", "controller", {"sim": 0, "controller": 1}),
+    # The planner beside the simulator, which idles while the controller computes.
+    "realtime_navigation_pinned": ("realtime", "navigation", {"sim": 0, "controller": 1, "planner": 0}),
 }
 
 
