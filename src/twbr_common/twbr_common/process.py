@@ -36,13 +36,14 @@ def check_cpus(cpus: list[int], allowed: set[int], name: str = "cpu_affinity") -
 
 
 def _ranges(cpus: list[int]) -> list[str]:
-    out: list[str] = []
+    """Sorted CPUs as taskset writes them: [0, 1, 3] -> ['0-1', '3']."""
+    runs: list[list[int]] = []
     for cpu in cpus:
-        if out and cpu == int(out[-1].split("-")[-1]) + 1:
-            out[-1] = f"{out[-1].split('-')[0]}-{cpu}"
+        if runs and cpu == runs[-1][1] + 1:
+            runs[-1][1] = cpu
         else:
-            out.append(str(cpu))
-    return out
+            runs.append([cpu, cpu])
+    return [str(first) if first == last else f"{first}-{last}" for first, last in runs]
 
 
 def pin_process(cpus: set[int]) -> None:

@@ -161,7 +161,7 @@ class SimNode(Node):
         stamp = to_stamp(now_ns)
         self._clock_msg.clock = stamp
         clock_due = self._clock_due.due(sim.time)
-        world = self.world_messages(stamp) if self.hosting_world and self._world_due.due(sim.time) else ()
+        world = self.world_messages(stamp) if self.hosting_world and self._world_due.due(sim.time) else []
         s = sim.state
         odom = self._odom_msg
         odom.header.stamp = stamp
