@@ -11,9 +11,9 @@ not for their age. On SIGINT it prints how many messages of each kind it sent, a
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
+import signal
 import sys
 from collections import Counter
 from collections.abc import Callable
@@ -22,8 +22,9 @@ import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 
 from twbr_common.geometry import quaternion_from_rpy
@@ -130,11 +131,19 @@ class FaultInjector(Node):
 
 
 def main() -> int:
-    rclpy.init(args=sys.argv)
+    # Its own SIGINT/SIGTERM handling and bounded waits: the test reads the counts it prints on the way out,
+    # and once (1 CI run in many) rclpy's handler left rclpy.spin() blocked past the test's 10 s.
+    rclpy.init(args=sys.argv, signal_handler_options=SignalHandlerOptions.NO)
+    stopping: list[int] = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda received, _frame: stopping.append(received))
     node = FaultInjector()
-    with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
-        rclpy.spin(node)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    while not stopping:
+        executor.spin_once(timeout_sec=0.1)
     print(json.dumps(dict(node.sent)), flush=True)
+    executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown()
     return 0

@@ -267,6 +267,7 @@ def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int =
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
     started = time.monotonic()
+    tty = sys.stderr.isatty()
     with (out_dir / "runs.csv").open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
@@ -276,8 +277,8 @@ def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int =
             f.flush()  # a finished run is kept, whatever stops the study
             rows.append(row)
             if progress:
-                _progress(len(rows), study.runs, time.monotonic() - started, rows)
-    if progress:
+                _progress(len(rows), study.runs, time.monotonic() - started, rows, tty)
+    if progress and tty:
         print(file=sys.stderr)
     rows.sort(key=lambda r: r["seed"])
     _write_csv(out_dir / "runs.csv", rows)  # the whole study, by seed
@@ -291,13 +292,21 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
         writer.writerows(_csv_row(row) for row in rows)
 
 
-def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]]) -> None:
+def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]], tty: bool) -> None:
+    """A bar redrawn in place on a terminal; in a log (not a terminal), a line at every tenth of the study
+    instead of one per run."""
+    if not tty and done < total and done * 10 // total == (done - 1) * 10 // total:
+        return
     width = 30
     filled = round(width * done / total)
     ok = sum(1 for r in rows if succeeded(r))
     eta = elapsed / done * (total - done)
-    print(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs, {ok} succeeded,"
-          f" {elapsed:.0f} s, about {eta:.0f} s left ", end="", file=sys.stderr, flush=True)
+    line = (f"[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs, {ok} succeeded,"
+            f" {elapsed:.0f} s, about {eta:.0f} s left")
+    if tty:
+        print(f"\r{line} ", end="", file=sys.stderr, flush=True)
+    else:
+        print(line, file=sys.stderr, flush=True)
 
 
 def succeeded(row: dict[str, Any]) -> bool:
