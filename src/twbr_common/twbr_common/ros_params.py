@@ -61,7 +61,7 @@ def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[st
         shown = ParamSpec(**{**spec.__dict__, "name": name})
         default = list(spec.default) if spec.kind is list else spec.default
         if default == []:  # rclpy takes an empty list for a byte array: declare the type, without a value
-            default = Parameter.Type.INTEGER_ARRAY if spec.item is int else Parameter.Type.DOUBLE_ARRAY
+            default = Parameter.Type(_type(spec))
         try:
             param = node.declare_parameter(name, default, descriptor(shown))
         except (InvalidParameterTypeException, InvalidParameterValueException, ParameterException) as e:

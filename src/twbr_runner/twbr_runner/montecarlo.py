@@ -266,6 +266,7 @@ def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int =
     """Run every seed, appending each finished row to out_dir/runs.csv; returns the rows by seed."""
     out_dir.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
+    ok = 0
     started = time.monotonic()
     tty = sys.stderr.isatty()
     with (out_dir / "runs.csv").open("w", newline="") as f:
@@ -276,8 +277,9 @@ def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int =
             writer.writerow(_csv_row(row))
             f.flush()  # a finished run is kept, whatever stops the study
             rows.append(row)
+            ok += succeeded(row)
             if progress:
-                _progress(len(rows), study.runs, time.monotonic() - started, rows, tty)
+                _progress(len(rows), ok, study.runs, time.monotonic() - started, tty)
     if progress and tty:
         print(file=sys.stderr)
     rows.sort(key=lambda r: r["seed"])
@@ -292,14 +294,13 @@ def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
         writer.writerows(_csv_row(row) for row in rows)
 
 
-def _progress(done: int, total: int, elapsed: float, rows: list[dict[str, Any]], tty: bool) -> None:
+def _progress(done: int, ok: int, total: int, elapsed: float, tty: bool) -> None:
     """A bar redrawn in place on a terminal; in a log (not a terminal), a line at every tenth of the study
     instead of one per run."""
     if not tty and done < total and done * 10 // total == (done - 1) * 10 // total:
         return
     width = 30
     filled = round(width * done / total)
-    ok = sum(1 for r in rows if succeeded(r))
     eta = elapsed / done * (total - done)
     line = (f"[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs, {ok} succeeded,"
             f" {elapsed:.0f} s, about {eta:.0f} s left")
