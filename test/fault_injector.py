@@ -1,8 +1,10 @@
 """Publishes garbage on every input topic of the graph, beside the real publishers (a test tool).
 
-Per topic, in turn: NaN, inf, absurdly large values, no stamp, and a stamp older than the newest (out of
-order). The unstamped and out-of-order messages carry plausible but wrong values (a 0.2 rad pitch, a
-0.8 N·m torque, a target behind the robot), so a node that accepted one would visibly change the run.
+Per topic, in turn: NaN, inf, absurdly large values, no stamp, a stamp older than the newest (out of
+order), and stamps ahead of the graph's clock: +1 s, +1000 s, and wall time on a sim-time graph (a
+driver with an unsynchronised clock, `ros2 topic pub ... '{header: auto}'`). The unstamped, out-of-order
+and future messages carry plausible but wrong values (a 0.2 rad pitch, a 0.8 N·m torque, a target behind
+the robot), so a node that accepted one would visibly change the run.
 It stamps with the graph's clock (use_sim_time), so NaN/absurd messages are refused for their values,
 not for their age. On SIGINT it prints how many messages of each kind it sent, as JSON.
 
@@ -15,6 +17,7 @@ import json
 import math
 import signal
 import sys
+import time
 from collections import Counter
 from collections.abc import Callable
 
@@ -31,9 +34,10 @@ from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.ros_io import to_stamp
 from twbr_msgs.msg import Obstacle, ObstacleArray, PlannerState, WheelTorques
 
-KINDS = ("nan", "inf", "absurd", "unstamped", "out_of_order")
+KINDS = ("nan", "inf", "absurd", "unstamped", "out_of_order", "future_1s", "future_1000s", "wall_time")
 VALUE_OF = {"nan": math.nan, "inf": math.inf, "absurd": 1e12}
 OUT_OF_ORDER_S = 0.1  # older than the newest real message, yet younger than every timeout (0.1 s and up)
+AHEAD_NS = {"future_1s": 10**9, "future_1000s": 1000 * 10**9}
 
 
 def _odom(bad: float | None) -> Odometry:
@@ -119,8 +123,11 @@ class FaultInjector(Node):
             msg = STAMPED[topic][1](VALUE_OF.get(kind))
             if kind == "unstamped":
                 msg.header.stamp = Time()
+            elif kind == "wall_time":
+                msg.header.stamp = to_stamp(time.time_ns())
             else:
-                msg.header.stamp = to_stamp(now - (round(OUT_OF_ORDER_S * 1e9) if kind == "out_of_order" else 0))
+                offset = -round(OUT_OF_ORDER_S * 1e9) if kind == "out_of_order" else AHEAD_NS.get(kind, 0)
+                msg.header.stamp = to_stamp(now + offset)
             pub.publish(msg)
             self.sent[f"{topic}:{kind}"] += 1
         if self.pub_cmd_vel is not None and kind in VALUE_OF:  # a Twist has no stamp: only its values can be bad

@@ -86,7 +86,70 @@ def test_drop_report_warns_once_per_period_per_stream_with_the_count(monkeypatch
     clock[0] += 1.0
     report.dropped("odom", "non-finite value")
     assert lines == ["dropped odom: non-finite value", "dropped imu: no stamp",
-                     "dropped odom: no stamp (5 dropped since the last warning: 4 non-finite value, 1 no stamp)",
-                     "dropped odom: non-finite value (2 dropped since the last warning: 1 no stamp,"
-                     " 1 non-finite value)"]
+                     "dropped odom: no stamp; 5 dropped since the last warning: 4 non-finite value, 1 no stamp",
+                     "dropped odom: non-finite value; 2 dropped since the last warning: 1 no stamp,"
+                     " 1 non-finite value"]
     assert g.rejected_total == 5  # the guard keeps the counts; the report only words them
+
+
+def test_drop_warning_stays_one_short_line_whatever_the_messages_carried(monkeypatch):
+    # Before: the values of each refused command went into its reason, and one warning listed every one of
+    # them (14.7 KB lines). The reason is a kind; the values of the triggering message only are shown.
+    from twbr_common import guard as guard_module
+
+    clock = [100.0]
+    monkeypatch.setattr(guard_module.time, "monotonic", lambda: clock[0])
+    lines: list[str] = []
+    report = guard_module.DropReport(lines.append, period=1.0)
+    for i in range(1000):
+        report.dropped("wheel_torque_cmd", "non-finite value", f"left={i}.123456, right=nan, stamp {i}.000 s")
+        clock[0] += 0.01
+    assert len(lines) == 10
+    assert max(map(len, lines)) < 200, max(lines, key=len)
+    assert lines[1].endswith("100 dropped since the last warning: 100 non-finite value")
+
+
+def test_guard_refuses_stamps_ahead_of_the_clock_and_keeps_the_stream():
+    # Before: one message stamped with wall time on a sim-time graph was accepted, and every real message
+    # after it was refused as out of order (the simulator applied zero torque; the robot fell).
+    g = InputGuard(timeout=0.1, future_tolerance=0.006)
+    assert g.offer(10.0, (1.0,), now=10.0) is Verdict.ACCEPTED
+    for ahead in (1.0, 1000.0, 1.8e9 - 10.0):
+        assert g.offer(10.0 + ahead, (1.0,), now=10.0) is Verdict.FUTURE
+    assert g.offer(10.005, (1.0,), now=10.0) is Verdict.ACCEPTED  # a state just before its /clock
+    assert g.offer(10.01, (1.0,), now=10.01) is Verdict.ACCEPTED  # the stream goes on
+    assert g.rejected[Verdict.FUTURE] == 3
+
+
+def test_future_tolerance_defaults_depend_on_the_clock():
+    from twbr_common.guard import SIM_FUTURE_TOLERANCE, WALL_FUTURE_TOLERANCE, future_tolerance
+
+    assert future_tolerance(-1.0, sim_time=True) == SIM_FUTURE_TOLERANCE < 0.01  # under two 200 Hz periods
+    assert future_tolerance(-1.0, sim_time=False) == WALL_FUTURE_TOLERANCE == 0.1
+    assert future_tolerance(0.3, sim_time=True) == 0.3
+
+
+def test_streams_restart_together_when_the_clock_goes_back():
+    # Before: only the stream that saw the jump restarted; a cmd_vel of the previous run stayed fresh.
+    from twbr_common.streams import InputStreams
+
+    restarted: list[int] = []
+    streams = InputStreams(lambda _line: None, future_tolerance=0.006)
+    streams.add("odom", 0.2)
+    cmd = streams.add("cmd_vel", 0.5, require_stamp=False)
+    streams.on_restart(lambda: restarted.append(1))
+    assert streams.admit("cmd_vel", 30.0, (0.5, 0.0), now=30.0)
+    assert streams.admit("odom", 30.0, (0.5, 0.0), now=30.0)
+    assert not cmd.is_stale(30.1)
+    assert not streams.admit("odom", 0.0, (0.0, 0.0), now=0.0) or True  # the new run's first state
+    assert restarted == [1] and streams.restarts == 1
+    assert cmd.is_stale(0.0)  # the old run's cmd_vel is gone
+    assert streams.admit("odom", 0.005, (0.0, 0.0), now=0.005)
+
+
+def test_decimator_restarts_its_schedule_when_time_goes_back():
+    # Before: the planner's schedule stayed at the old run's time, and it never planned again.
+    d = Decimator(20.0)
+    assert [d.due(t / 200.0) for t in range(0, 21)].count(True) == 3  # 0, 0.05, 0.1
+    assert d.due(0.0)  # a restarted simulator
+    assert not d.due(0.005) and d.due(0.05)

@@ -2,7 +2,9 @@
 
 A message is refused when a value is NaN/inf or absurdly large (past the stream's `limit`), when it has
 no stamp (zero, once the clock is past the timeout: at sim time 0 a zero stamp is a real one), when its
-stamp is already older than the timeout (stale on arrival), or when its stamp is older than the last one
+stamp is already older than the timeout (stale on arrival), when its stamp is ahead of the node's clock by
+more than `future_tolerance` (a driver with an unsynchronised clock, wall time on a sim-time graph: accepted,
+it would make every real message after it look out of order), or when its stamp is older than the last one
 accepted (out of order). An input not refreshed within its timeout is stale, and the caller then falls
 back to its safe value (zero torque, zero velocity). Stamps and `now` are seconds of the same clock (sim
 time in simulation). Pure Python.
@@ -16,11 +18,34 @@ from collections import Counter
 from collections.abc import Callable, Iterable
 from enum import Enum
 
+from twbr_common.params import ParamSpec
+
 # Largest magnitudes a stream's values may have (SI units). Far past anything a balancing robot does, so
 # only garbage (a unit mix-up, uninitialised memory, a corrupted message) is refused, never a hard manoeuvre.
 RATE_LIMIT = 100.0  # speeds, angular rates and angles [m/s, rad/s, rad]
 POSITION_LIMIT = 1e5  # positions and distances [m]
 TORQUE_LIMIT = 1e3  # wheel torques [N·m]: the top of the controller's max_wheel_torque range
+
+# How far ahead of the node's clock a stamp may be, when the parameter says "auto" (negative). On wall time,
+# clocks of separate machines agree to a few ms with NTP/PTP, and 0.1 s refuses only an unsynchronised one.
+# On sim time the clock is the simulator's own, sent just before each state; but DDS does not order two
+# topics, and about one state in 5000 reaches a node before the /clock that announces it (measured): one
+# 200 Hz state period plus a margin admits that state, and nothing further ahead.
+WALL_FUTURE_TOLERANCE = 0.1
+SIM_FUTURE_TOLERANCE = 0.006
+
+INPUT_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("future_tolerance", -1.0, "an input stamped more than this ahead of the node's clock is dropped"
+              f" and counted; negative: {WALL_FUTURE_TOLERANCE:g} s on wall time, {SIM_FUTURE_TOLERANCE:g} s on"
+              " sim time", "s", -1.0, 60.0),
+)
+
+
+def future_tolerance(value: float, sim_time: bool) -> float:
+    """The tolerance a node uses: the parameter, or its clock's default when the parameter is negative."""
+    if value >= 0.0:
+        return value
+    return SIM_FUTURE_TOLERANCE if sim_time else WALL_FUTURE_TOLERANCE
 
 
 class Verdict(Enum):
@@ -29,18 +54,23 @@ class Verdict(Enum):
     IMPLAUSIBLE = "absurdly large value"
     UNSTAMPED = "no stamp"
     STALE = "stamp older than the timeout"
+    FUTURE = "stamp ahead of the clock"
     OUT_OF_ORDER = "stamp older than the last accepted"
 
 
 class InputGuard:
     """Tracks one input stream: the last accepted stamp, when it arrived, and what was refused."""
 
-    def __init__(self, timeout: float, require_stamp: bool = True, limit: float = math.inf) -> None:
+    def __init__(self, timeout: float, require_stamp: bool = True, limit: float = math.inf,
+                 future_tolerance: float = math.inf) -> None:
         if not timeout > 0.0:
             raise ValueError("timeout must be > 0")
+        if not future_tolerance >= 0.0:
+            raise ValueError("future_tolerance must be >= 0")
         self.timeout = timeout
         self.require_stamp = require_stamp
         self.limit = limit
+        self.future_tolerance = future_tolerance
         self.last_stamp: float | None = None
         self.last_receipt: float | None = None
         self.rejected: Counter[Verdict] = Counter()
@@ -74,6 +104,8 @@ class InputGuard:
                 return Verdict.UNSTAMPED
             if now - stamp > self.timeout:
                 return Verdict.STALE
+            if stamp - now > self.future_tolerance:
+                return Verdict.FUTURE
         if self.last_stamp is not None and stamp < self.last_stamp:
             return Verdict.OUT_OF_ORDER
         return Verdict.ACCEPTED
@@ -114,7 +146,9 @@ class DropReport:
         self.dropped(stream, verdict.value)
         return False
 
-    def dropped(self, stream: str, reason: str) -> None:
+    def dropped(self, stream: str, reason: str, detail: str = "") -> None:
+        """Count a refused message by `reason` (one of a few kinds); `detail` (its values) goes into the
+        warning only when this message is the one that triggers it, so a line stays one short line."""
         reasons = self._pending.setdefault(stream, Counter())
         reasons[reason] += 1
         now = time.monotonic()
@@ -122,6 +156,7 @@ class DropReport:
             self._last[stream] = now
             del self._pending[stream]
             n = reasons.total()
-            detail = ", ".join(f"{k} {r}" for r, k in reasons.most_common())
-            self._warn(f"dropped {stream}: {reason}" + (f" ({n} dropped since the last warning: {detail})"
-                                                        if n > 1 else ""))
+            kinds = ", ".join(f"{k} {r}" for r, k in reasons.most_common())
+            shown = f" ({detail})" if detail else ""
+            self._warn(f"dropped {stream}: {reason}{shown}" + (f"; {n} dropped since the last warning: {kinds}"
+                                                                if n > 1 else ""))

@@ -8,6 +8,8 @@ from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rclpy.clock import JumpThreshold
+from rclpy.duration import Duration
 from rclpy.exceptions import (
     InvalidParameterTypeException,
     InvalidParameterValueException,
@@ -18,8 +20,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from twbr_common.executor import spin_until_shutdown
+from twbr_common.guard import INPUT_SPECS, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_common.process import PROCESS_SPECS, settle_process
+from twbr_common.streams import InputStreams
 
 EXIT_CONFIG_ERROR = 2
 
@@ -102,3 +106,18 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
         if rclpy.ok():
             rclpy.try_shutdown()
     return code
+
+
+def input_streams(node: Node) -> InputStreams:
+    """The node's guarded inputs, with its future_tolerance, restarted when its clock jumps back.
+
+    rclpy's jump callback restarts them the moment /clock goes back, before any message of the new run is
+    judged against the old run's stamps; `InputStreams.observe` catches the same on wall time.
+    """
+    cfg = declare(node, INPUT_SPECS)
+    sim_time = bool(node.get_parameter("use_sim_time").value)
+    streams = InputStreams(node.get_logger().warning, future_tolerance(cfg["future_tolerance"], sim_time))
+    threshold = JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False)
+    # The handle must live as long as the node: dropping it unregisters the callback.
+    streams.jump_handle = node.get_clock().create_jump_callback(threshold, post_callback=lambda _jump: streams.restart())
+    return streams

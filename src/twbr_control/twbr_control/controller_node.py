@@ -4,6 +4,10 @@ Subscribes odom and imu (sensor-data QoS) and cmd_vel (Twist, or TwistStamped wi
 enable_stamped_cmd_vel); publishes wheel_torque_cmd, stamped with the state it was computed from (what
 a lockstep simulator waits for), and controller_state. It computes once per state, at most at `rate`,
 so it runs in sim time (use_sim_time, /clock) and in wall time alike. Service ~/enable (SetBool).
+
+A cmd_vel takes effect from the first state stamped after it (its stamp, or its arrival on the node's
+clock for a plain Twist): whether it arrived just before or just after the state of the same instant
+then never changes the command, so a lockstep run is the same on an idle and on a loaded machine.
 """
 
 from __future__ import annotations
@@ -16,9 +20,9 @@ from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
 from twbr_common.geometry import rpy_from_quaternion
-from twbr_common.guard import RATE_LIMIT, DropReport, InputGuard
+from twbr_common.guard import RATE_LIMIT
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
-from twbr_common.ros_params import declare, run_node
+from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
 from twbr_control.state_sync import Action, RobotState, StateSync
@@ -33,16 +37,14 @@ class ControllerNode(Node):
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.controller.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
-        self.odom_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)
-        self.imu_guard = InputGuard(cfg["state_timeout"], limit=RATE_LIMIT)
+        self.inputs = input_streams(self)
+        self.inputs.add("odom", cfg["state_timeout"], limit=RATE_LIMIT)
+        self.inputs.add("imu", cfg["state_timeout"], limit=RATE_LIMIT)
         stamped = cfg["enable_stamped_cmd_vel"]
-        self.cmd_guard = InputGuard(cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
-        self.drops = DropReport(self.get_logger().warning)
-        self.velocity_ref = 0.0
-        self.yaw_rate_ref = 0.0
-        self._last_command: WheelTorques | None = None
+        self.cmd_guard = self.inputs.add("cmd_vel", cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
+        self.inputs.on_restart(self._restart)
+        self._restart()
         self._reported_fall = False
-        self._stamps: dict[str, Time] = {}
 
         self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
         self.pub_state = self.create_publisher(ControllerState, "controller_state", SENSOR_PUB_QOS)
@@ -62,20 +64,25 @@ class ControllerNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _admit(self, guard: InputGuard, stream: str, stamp: float, values: tuple[float, ...]) -> bool:
-        jumps = guard.clock_jumps
-        accepted = self.drops.admit(guard, stream, stamp, values, self._now())
-        if guard.clock_jumps != jumps:
-            # The clock went back (a restarted simulator, a bag replayed from the start): start afresh.
-            self.get_logger().warning(f"clock jumped back (seen on {stream}): resetting the controller")
-            self.sync.reset()
-            self.controller.reset()
-        return accepted
+    def _restart(self) -> None:
+        """Nothing from before a clock jump back (a restarted simulator, a replayed bag) survives it."""
+        if self.inputs.restarts:
+            self.get_logger().warning("clock jumped back: controller, state pairing and cmd_vel restarted")
+        self.sync.reset()
+        self.controller.reset()
+        self.velocity_ref = 0.0
+        self.yaw_rate_ref = 0.0
+        self._next_refs: tuple[float, float, float] | None = None  # (stamp, v, omega) not yet in effect
+        self._last_command: WheelTorques | None = None
+        self._stamps: dict[str, Time] = {}
+
+    def _admit(self, stream: str, stamp: float, values: tuple[float, ...]) -> bool:
+        return self.inputs.admit(stream, stamp, values, self._now())
 
     def _on_odom(self, msg: Odometry) -> None:
         stamp = stamp_seconds(msg.header.stamp)
         velocity, yaw_rate = msg.twist.twist.linear.x, msg.twist.twist.angular.z
-        if self._admit(self.odom_guard, "odom", stamp, (velocity, yaw_rate)):
+        if self._admit("odom", stamp, (velocity, yaw_rate)):
             self._stamps["odom"] = msg.header.stamp
             self._act(*self.sync.offer_odom(stamp, velocity, yaw_rate))
 
@@ -84,17 +91,19 @@ class ControllerNode(Node):
         o = msg.orientation
         _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         pitch_rate = msg.angular_velocity.y
-        if self._admit(self.imu_guard, "imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
+        if self._admit("imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
             self._stamps["imu"] = msg.header.stamp
             self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
 
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
         values = (twist.linear.x, twist.angular.z)
-        if self._admit(self.cmd_guard, "cmd_vel", stamp, values):
-            self.velocity_ref, self.yaw_rate_ref = values
+        if self._admit("cmd_vel", stamp, values):
+            self._next_refs = (stamp, *values)
 
     def _on_cmd_vel(self, msg: Twist) -> None:
-        self._take_cmd_vel(self._now(), msg)  # an unstamped Twist is as old as its arrival
+        # An unstamped Twist is as old as its arrival: the node's clock, or the newest state it has, when
+        # that state came in before the /clock announcing it.
+        self._take_cmd_vel(max(self._now(), self.sync.newest_stamp), msg)
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
         self._take_cmd_vel(stamp_seconds(msg.header.stamp), msg.twist)
@@ -112,6 +121,9 @@ class ControllerNode(Node):
         if action is Action.REPEAT and self._last_command is not None:
             self.pub_torque.publish(self._last_command)
         elif action is Action.COMPUTE and state is not None:
+            if self._next_refs is not None and self._next_refs[0] < state.stamp:
+                _, self.velocity_ref, self.yaw_rate_ref = self._next_refs
+                self._next_refs = None
             stale = self.cmd_guard.is_stale(state.stamp)
             out = self.controller.compute(state.stamp, self.velocity_ref, self.yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)

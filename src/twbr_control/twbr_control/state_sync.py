@@ -40,6 +40,12 @@ class StateSync:
     def reset(self) -> None:
         self.__init__(1.0 / self.period, self.tolerance)
 
+    @property
+    def newest_stamp(self) -> float:
+        """The newest stamp of an odom or imu sample offered since the last reset (-inf before any)."""
+        stamps = [sample[0] for sample in (self._odom, self._imu) if sample is not None]
+        return max(stamps, default=float("-inf"))
+
     def offer_odom(self, stamp: float, velocity: float, yaw_rate: float) -> tuple[Action, RobotState | None]:
         self._odom = (stamp, velocity, yaw_rate)
         return self._decide()

@@ -3,13 +3,17 @@
 Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward speed along its
 heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
-`rate` in odom stamps, so it runs on sim time and wall time alike. Obstacles are moved along their
-velocity to the odom stamp; a target or obstacle list older than world_timeout stops the robot.
+`rate` in odom stamps, so it runs on sim time and wall time alike. A plan at odom stamp t waits (at most
+world_wait of wall time) for the world of its instant, target and obstacles stamped after
+t - world_period: the world of each planning instant reaches the plan even when a loaded machine delivers
+it after the odom, so a lockstep run is the same on an idle and on a busy machine. Obstacles are moved
+along their velocity to the odom stamp; a target or obstacle list older than world_timeout stops the robot.
 """
 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 from geometry_msgs.msg import Twist, TwistStamped, Vector3
@@ -18,10 +22,10 @@ from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import rpy_from_quaternion
-from twbr_common.guard import POSITION_LIMIT, DropReport, InputGuard
+from twbr_common.guard import POSITION_LIMIT
 from twbr_common.markers import arrow
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
-from twbr_common.ros_params import declare, run_node
+from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
@@ -38,17 +42,15 @@ class PlannerNode(Node):
         self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
         self.core = ApfPlanner(self.cfg)
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
-        self.odom_guard = InputGuard(self.cfg["odom_timeout"], limit=POSITION_LIMIT)
-        # Stale on arrival, out of order or unstamped: with depth-1 world queues, a bad sample would
-        # otherwise replace the good one.
-        self.target_guard = InputGuard(self.cfg["world_timeout"], limit=POSITION_LIMIT)
-        self.obstacles_guard = InputGuard(self.cfg["world_timeout"], limit=POSITION_LIMIT)
-        self.drops = DropReport(self.get_logger().warning)
+        self.inputs = input_streams(self)
+        self.inputs.add("odom", self.cfg["odom_timeout"], limit=POSITION_LIMIT)
+        # Stale on arrival, out of order or unstamped: a bad world sample must never replace a good one.
+        self.inputs.add("target", self.cfg["world_timeout"], limit=POSITION_LIMIT)
+        self.inputs.add("obstacles", self.cfg["world_timeout"], limit=POSITION_LIMIT)
         self._due = Decimator(self.cfg["rate"])
         self._marker_due = Decimator(self.cfg["marker_rate"])
-        self._target: tuple[float, Target] | None = None
-        self._obstacles: tuple[float, ObstacleArray] | None = None
-        self._last_plan: tuple[float, PlannerOutput] | None = None
+        self.inputs.on_restart(self._restart)
+        self._restart()
         self.stamped = self.cfg["enable_stamped_cmd_vel"]
         self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
         self.pub_state = self.create_publisher(PlannerState, "planner_state", SENSOR_PUB_QOS)
@@ -60,6 +62,7 @@ class PlannerNode(Node):
         self.create_subscription(Odometry, "target", self._on_target, WORLD_QOS)
         self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
+        self.create_timer(0.02, self._plan_overdue)
         self.get_logger().info(
             f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"
             f" K_o {self.cfg['k_o']:g}, rho_o {self.cfg['rho_o']:g} m, K_s {self.cfg['k_s']:g},"
@@ -70,8 +73,21 @@ class PlannerNode(Node):
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def _admit(self, guard: InputGuard, stream: str, stamp: float, values) -> bool:
-        return self.drops.admit(guard, stream, stamp, values, self._now())
+    def _admit(self, stream: str, stamp: float, values) -> bool:
+        return self.inputs.admit(stream, stamp, values, self._now())
+
+    def _restart(self) -> None:
+        """Nothing from before a clock jump back (a restarted simulator) survives it, the schedule included."""
+        if self.inputs.restarts:
+            self.get_logger().warning("clock jumped back: planner, its schedule and its world restarted")
+        self.core.reset()
+        self._due.restart()
+        self._marker_due.restart()
+        self._target: tuple[float, Target] | None = None
+        self._obstacles: tuple[float, ObstacleArray] | None = None
+        self._last_plan: tuple[float, PlannerOutput] | None = None
+        # (odom message, its stamp, x, y, yaw, speed, wall deadline): a plan due, waiting for its world.
+        self._pending: tuple | None = None
 
     def _on_target(self, msg: Odometry) -> None:
         o = msg.pose.pose.orientation
@@ -79,33 +95,59 @@ class PlannerNode(Node):
         speed = msg.twist.twist.linear.x
         stamp = stamp_seconds(msg.header.stamp)
         values = (msg.pose.pose.position.x, msg.pose.pose.position.y, heading, speed)
-        if self._admit(self.target_guard, "target", stamp, values):
+        if self._admit("target", stamp, values):
             target = Target(values[0], values[1], speed * math.cos(heading), speed * math.sin(heading))
             self._target = (stamp, target)
+            self._plan_pending()
 
     def _on_obstacles(self, msg: ObstacleArray) -> None:
         stamp = stamp_seconds(msg.header.stamp)
         numbers = [v for o in msg.obstacles for v in (o.position.x, o.position.y, o.velocity.x, o.velocity.y,
                                                       o.radius)]
         if any(o.radius < 0.0 for o in msg.obstacles):
-            self.drops.dropped("obstacles", "negative radius")
-        elif self._admit(self.obstacles_guard, "obstacles", stamp, numbers):
+            self.inputs.dropped("obstacles", "negative radius")
+        elif self._admit("obstacles", stamp, numbers):
             self._obstacles = (stamp, msg)
+            self._plan_pending()
 
     def _on_odom(self, msg: Odometry) -> None:
         stamp = stamp_seconds(msg.header.stamp)
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
         _, _, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         speed = msg.twist.twist.linear.x
-        if not self._admit(self.odom_guard, "odom", stamp, (p.x, p.y, yaw, speed)):
+        if not self._admit("odom", stamp, (p.x, p.y, yaw, speed)):
             return
         if self._last_plan is not None and stamp == self._last_plan[0]:
             # The same state offered again (a lockstep simulator waiting at t = 0): answer it again.
             self._publish(msg, self._last_plan[1], p.x, p.y)
         elif self._due.due(stamp):
-            self._plan(msg, stamp, p.x, p.y, yaw, speed)
+            if self._pending is not None:
+                self._plan_pending(force=True)  # the next instant is due: the last one plans with what it has
+            self._pending = (msg, stamp, p.x, p.y, yaw, speed, time.monotonic() + self.cfg["world_wait"])
+            self._plan_pending()
 
     # --- planning -----------------------------------------------------------------------------
+    def _world_current(self, stamp: float) -> bool:
+        """Target and obstacles of the planning instant `stamp` are in (stamped after stamp - world_period)."""
+        since = stamp - self.cfg["world_period"] + 1e-9
+        return all(sample is not None and sample[0] > since for sample in (self._target, self._obstacles))
+
+    def _plan_pending(self, force: bool = False) -> None:
+        if self._pending is None:
+            return
+        odom, stamp, x, y, yaw, speed, deadline = self._pending
+        if not (force or self._world_current(stamp) or time.monotonic() >= deadline):
+            return
+        self._pending = None
+        self._plan(odom, stamp, x, y, yaw, speed)
+
+    def _plan_overdue(self) -> None:
+        if self._pending is not None and time.monotonic() >= self._pending[-1]:
+            self.get_logger().warning(
+                f"no target/obstacles of t = {self._pending[1]:.3f} s within world_wait ="
+                f" {self.cfg['world_wait']:g} s: planning with the last ones", throttle_duration_sec=2.0)
+            self._plan_pending(force=True)
+
     def _plan(self, odom: Odometry, stamp: float, x: float, y: float, yaw: float, speed: float) -> None:
         timeout = self.cfg["world_timeout"]
         if self._target is None or self._obstacles is None:

@@ -27,7 +27,7 @@ CONTROLLER_FIELDS = (
 
 
 # What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
-MEASURED_TOPICS = ("/controller_state", "/odom", "/joint_states", "/sim_status", "/world_status", "/target",
+MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/joint_states", "/sim_status", "/world_status", "/target",
                    "/obstacles", "/planner_state")
 
 
@@ -74,21 +74,45 @@ _VALUES: dict[str, Any] = {
 }
 
 
-def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int], keep_last: bool = False) -> list[Any]:
+# A recorded message stamped further than this ahead of the bag's clock came from another clock. Wider than
+# the nodes' tolerance: the recorder may take a state before the /clock that announces it, and it is niced.
+BAG_FUTURE_TOLERANCE = 0.5  # [s]
+
+
+class BagClock:
+    """What the graph's clock read when the recorder received a message: the newest /clock received by
+    then (sim time), or the receive time itself when the bag has no /clock (a graph on wall time)."""
+
+    def __init__(self, clock_messages: list[tuple[int, Any]]) -> None:
+        received = sorted((t, m.clock.sec + m.clock.nanosec * 1e-9) for t, m in clock_messages)
+        self._received = np.array([t for t, _ in received], dtype=np.int64)
+        # A restarted simulator sends its clock back: the clock at a receipt is the last one sent, not the max.
+        self._clock = np.array([c for _, c in received])
+
+    def at(self, received_ns: int) -> float:
+        if not len(self._received):
+            return received_ns * 1e-9
+        i = int(np.searchsorted(self._received, received_ns, side="right")) - 1
+        return float(self._clock[i]) if i >= 0 else 0.0
+
+
+def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int], clock: BagClock,
+              keep_last: bool = False) -> list[Any]:
     """The messages a node would have accepted, in stamp order, one per stamp.
 
     A bag records everything on a topic, including what another publisher injected (NaN, absurd values, no
-    stamp, out of order); the metrics are of the run, so they read only what passes the nodes' own guard.
-    A bag has no node clock, so only values and order are judged (an unstamped message comes out of order).
-    A lockstep simulator may re-offer its first state: equal stamps keep the first (statuses: the last, which
-    carries the final counters).
+    stamp, out of order, stamped ahead of the clock); the metrics are of the run, so they read only what
+    passes the nodes' own guard. Values and order are judged, and stamps against the bag's clock (an
+    unstamped message comes out of order). A lockstep simulator may re-offer its first state: equal stamps
+    keep the first (statuses: the last, which carries the final counters).
     """
     values = _VALUES.get(topic, lambda m: ())
-    guard = InputGuard(math.inf, require_stamp=False, limit=POSITION_LIMIT)  # the widest of the nodes' limits
+    # The widest of the nodes' limits; no timeout (the recorder is allowed to lag).
+    guard = InputGuard(math.inf, require_stamp=True, limit=POSITION_LIMIT, future_tolerance=BAG_FUTURE_TOLERANCE)
     by_stamp: dict[float, Any] = {}
-    for _, msg in sorted(items, key=lambda item: item[0]):
+    for received, msg in sorted(items, key=lambda item: item[0]):
         t = stamp_of(msg)
-        if guard.offer(t, values(msg), now=math.inf) is not Verdict.ACCEPTED:
+        if guard.offer(t, values(msg), now=clock.at(received)) is not Verdict.ACCEPTED:
             continue
         if keep_last:
             by_stamp[t] = msg
@@ -101,26 +125,27 @@ def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int],
 
 def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSeries:
     s = RunSeries(counts={t: len(v) for t, v in messages.items()}, messages=dict(messages))
-    control = _admitted("/controller_state", messages.get("/controller_state", []), s.refused)
+    clock = BagClock(messages.get("/clock", []))
+    control = _admitted("/controller_state", messages.get("/controller_state", []), s.refused, clock)
     s.control_t = np.array([stamp_of(m) for m in control])
     s.control = {name: np.array([float(getattr(m, name)) for m in control]) for name in CONTROLLER_FIELDS}
-    odom = _admitted("/odom", messages.get("/odom", []), s.refused)
+    odom = _admitted("/odom", messages.get("/odom", []), s.refused, clock)
     s.odom_t = np.array([stamp_of(m) for m in odom])
     s.x_c = np.array([m.pose.pose.position.x for m in odom])
     s.y_c = np.array([m.pose.pose.position.y for m in odom])
     s.pitch = np.array([rpy_from_quaternion(m.pose.pose.orientation.x, m.pose.pose.orientation.y,
                                             m.pose.pose.orientation.z, m.pose.pose.orientation.w)[1] for m in odom])
-    joints = _admitted("/joint_states", messages.get("/joint_states", []), s.refused)
+    joints = _admitted("/joint_states", messages.get("/joint_states", []), s.refused, clock)
     s.joints_t = np.array([stamp_of(m) for m in joints])
     s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
-    s.sim_status = _admitted("/sim_status", messages.get("/sim_status", []), s.refused, keep_last=True)
-    s.world_status = _admitted("/world_status", messages.get("/world_status", []), s.refused, keep_last=True)
-    target = _admitted("/target", messages.get("/target", []), s.refused)
+    s.sim_status = _admitted("/sim_status", messages.get("/sim_status", []), s.refused, clock, keep_last=True)
+    s.world_status = _admitted("/world_status", messages.get("/world_status", []), s.refused, clock, keep_last=True)
+    target = _admitted("/target", messages.get("/target", []), s.refused, clock)
     s.target_t = np.array([stamp_of(m) for m in target])
     s.target_xy = np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for m in target]).reshape(-1, 2)
     s.obstacles = [(stamp_of(m), [(o.id, o.position.x, o.position.y, o.radius) for o in m.obstacles])
-                   for m in _admitted("/obstacles", messages.get("/obstacles", []), s.refused)]
-    s.planner = _admitted("/planner_state", messages.get("/planner_state", []), s.refused)
+                   for m in _admitted("/obstacles", messages.get("/obstacles", []), s.refused, clock)]
+    s.planner = _admitted("/planner_state", messages.get("/planner_state", []), s.refused, clock)
     return s
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
@@ -37,7 +36,7 @@ from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
-from twbr_sim.run_report import latency_text, rates_text
+from twbr_sim.run_report import LatencyRecord, rates_text
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
@@ -68,7 +67,7 @@ class SimNode(Node):
         self._status_flags: tuple | None = None
         self._published_at: float | None = None
         self._prepared: tuple[int, bool, list] | None = None  # (stamp ns, clock due, world messages) to send
-        self._latencies: list[float] = []
+        self._latencies = LatencyRecord()
         self.drops = DropReport(self.get_logger().warning)
 
         self._clock_msg, self._odom_msg, self._imu_msg = self._control_messages()
@@ -115,8 +114,9 @@ class SimNode(Node):
         stamp = stamp_seconds(msg.header.stamp)
         result = self.sim.offer_command(stamp, msg.left, msg.right)
         if result.verdict is not Verdict.ACCEPTED:
-            self.drops.dropped("wheel_torque_cmd", f"{result.verdict.value} (left={msg.left:.6g},"
-                                                   f" right={msg.right:.6g}, stamp {stamp:.3f} s)")
+            self.drops.dropped("wheel_torque_cmd", result.verdict.value,
+                               f"left={msg.left:.6g}, right={msg.right:.6g}, stamp {stamp:.3f} s at t ="
+                               f" {self.sim.time:.3f} s")
             return
         if result.saturated:
             self.get_logger().warning(
@@ -126,7 +126,7 @@ class SimNode(Node):
         if self._pending_ns is not None and stamp_ns(msg.header.stamp) == self._pending_ns:
             if not self._matched and self._published_at is not None:
                 # State published -> its command received: the whole control loop over DDS.
-                self._latencies.append(time.perf_counter() - self._published_at)
+                self._latencies.add(time.perf_counter() - self._published_at)
             self._matched = True
 
     def _on_planner_state(self, msg: PlannerState) -> None:
@@ -328,10 +328,7 @@ class SimNode(Node):
             self.pub_status.publish(self.status_message(final))  # the run's final counters
             flush_publishers(self)
         rates = rates_text(self._exchanges, wall, self.sim.time - self._sim_start) if wall > 0 else ""
-        latency = ""
-        if self._latencies:
-            ms = np.array(self._latencies) * 1e3
-            latency = latency_text(float(np.median(ms)), float(np.percentile(ms, 99)), len(ms))
+        latency = self._latencies.text()
         self.get_logger().info(
             f"stopped at t = {self.sim.time:.3f} s after {self.sim.step_count} steps,"
             f" {self.sim.lockstep_timeouts} lockstep timeouts{rates}{latency}"
@@ -357,12 +354,16 @@ class SimNode(Node):
                     break
                 executor.spin_once(timeout_sec=remaining)
             if not self._answered():
+                missing = "wheel_torque_cmd" if not self._matched else "planner_state"
                 if waiting_first and self.sim.step_count == 0:
                     self.send_control_state(again=True)  # nobody has answered yet: offer it again
+                    self.get_logger().warning(
+                        f"holding t = 0: no {missing} for the first state yet (is every node of the graph"
+                        " running, on this ROS_DOMAIN_ID and on sim time?)", throttle_duration_sec=5.0)
                     continue
                 self.sim.lockstep_timeouts += 1
                 self.get_logger().warning(
-                    f"lockstep timeout at t = {self.sim.time:.3f} s: no {'command' if not self._matched else 'planner_state'}"
+                    f"lockstep timeout at t = {self.sim.time:.3f} s: no {missing}"
                     f" within {timeout:g} s wall; stepping on ({self.sim.lockstep_timeouts} so far)",
                     throttle_duration_sec=1.0,
                 )

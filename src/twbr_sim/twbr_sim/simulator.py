@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twbr_common.guard import TORQUE_LIMIT, InputGuard, Verdict
+from twbr_common.guard import INPUT_SPECS, TORQUE_LIMIT, InputGuard, Verdict, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
 from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
@@ -56,6 +56,7 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("odom_frame", "odom", "fixed frame of odom, target and obstacles"),
     ParamSpec("base_frame", "base_link", "robot frame (axle centre, pitched with the body)"),
     *IMU_SPECS,
+    *INPUT_SPECS,
 )
 
 
@@ -82,7 +83,9 @@ class Simulator:
         self.h = 1.0 / settings["physics_rate"]
         self.steps_per_publish = steps_per_publish(settings["physics_rate"], settings["publish_rate"])
         self.torque_limit = wheel_torque_limit(robot)
-        self.guard = InputGuard(settings["command_timeout"], limit=TORQUE_LIMIT)
+        # The simulator's clock is sim time: a command stamped ahead of it comes from another clock.
+        self.guard = InputGuard(settings["command_timeout"], limit=TORQUE_LIMIT,
+                                future_tolerance=future_tolerance(settings["future_tolerance"], sim_time=True))
         self.scenario = scenario
         self.world = World(scenario, robot[P_ROBOT_RADIUS], seed) if scenario is not None else None
         self.imu_model = ImuModel(settings, seed)

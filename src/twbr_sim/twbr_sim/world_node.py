@@ -11,10 +11,10 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
-from twbr_common.guard import POSITION_LIMIT, DropReport, InputGuard
+from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
-from twbr_common.ros_params import declare, run_node
+from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, WorldStatus
 from twbr_sim.scenario import load_scenario
@@ -39,13 +39,15 @@ class WorldNode(Node):
         cfg = declare(self, WORLD_SPECS)
         scenario = load_scenario(find_scenario(cfg["scenario"]))
         seed = cfg["seed"] if cfg["seed"] >= 0 else scenario.seed
-        self.world = World(scenario, cfg["robot_radius"], seed)
+        self._new_world = lambda: World(scenario, cfg["robot_radius"], seed)
+        self.world = self._new_world()
         self.world.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.frame = cfg["odom_frame"]
         self.sim_time = bool(self.get_parameter("use_sim_time").value)
         self._t0: float | None = None
-        self._odom_guard = InputGuard(cfg["odom_timeout"], limit=POSITION_LIMIT)
-        self.drops = DropReport(self.get_logger().warning)
+        self.inputs = input_streams(self)
+        self._odom_guard = self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
+        self.inputs.on_restart(self._restart)
         self._robot_xy: tuple[float, float] | None = None
         self._marker_due = Decimator(cfg["marker_rate"])
         self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
@@ -68,16 +70,25 @@ class WorldNode(Node):
             self._t0 = now
         return now - self._t0
 
+    def _restart(self) -> None:
+        """The clock went back (a restarted simulator): the world starts again with it, from its seed."""
+        self.get_logger().warning("clock jumped back: the world restarts from the scenario's start")
+        self.world = self._new_world()
+        self._robot_xy = None
+        self._marker_due.restart()
+
     def _on_odom(self, msg: Odometry) -> None:
         p = msg.pose.pose.position
-        if self.drops.admit(self._odom_guard, "odom", stamp_seconds(msg.header.stamp), (p.x, p.y), self._now()):
+        if self.inputs.admit("odom", stamp_seconds(msg.header.stamp), (p.x, p.y), self._now()):
             self._robot_xy = (p.x, p.y)
 
     def _tick(self) -> None:
         clock_now = self.get_clock().now()
         t = self._world_time(clock_now.nanoseconds * 1e-9)
-        if t is None or t < self.world.time:
+        if t is None:
             return
+        if t < self.world.time:
+            self.inputs.restart()
         self.world.advance_to(t)
         stamp = clock_now.to_msg()  # the instant the world was sampled at, however long the step took
         target = self.world.target()

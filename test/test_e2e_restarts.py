@@ -1,0 +1,102 @@
+"""Time and restarts through the real processes: a simulator killed and started again, and the same run on
+an idle and on a loaded machine. Runs use the short course (test/scenarios/fault_course.yaml)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from twbr_msgs.msg import ControllerState, PlannerState, WorldStatus
+from twbr_runner.bag_reader import read_messages
+from twbr_runner.metrics import series_from_messages
+
+pytestmark = pytest.mark.e2e
+HERE = Path(__file__).parent
+COURSE = HERE / "scenarios" / "fault_course.yaml"
+RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+SIM_PARAMS = ("robot.yaml", "sim.yaml")
+
+
+def _t(msg) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+@pytest.mark.parametrize("planner_rate", [20.0, 0.0], ids=["lockstep_planner", "lockstep_controller_only"])
+def test_simulator_killed_and_started_again_the_new_run_reaches_its_target(launch, ros, planner_rate):
+    # Before: the planner's schedule stayed at the old run's time (silent), the new simulator held t = 0
+    # forever with no log line, and the controller re-applied the old run's last cmd_vel.
+    states: list[ControllerState] = []
+    plans: list[PlannerState] = []
+    world: list[WorldStatus] = []
+    ros.node.create_subscription(ControllerState, "controller_state", states.append, RELIABLE)
+    ros.node.create_subscription(PlannerState, "planner_state", plans.append, RELIABLE)
+    ros.node.create_subscription(WorldStatus, "world_status", world.append, RELIABLE)
+    controller = launch("twbr_control", "controller_node", params=("controller.yaml",))
+    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    sim_args = ("-p", f"scenario:={COURSE}", "-p", "duration:=120.0", "-p", "wait_for_subscribers:=2",
+                "-p", f"lockstep_planner_rate:={planner_rate}")
+    first = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
+    assert ros.spin_until(lambda: states and _t(states[-1]) > 6.0 and states[-1].velocity > 0.2, 60.0), first.output
+    os.killpg(first.proc.pid, signal.SIGKILL)  # mid-run, driving, no goodbye
+    killed_at = _t(states[-1])
+    ros.spin_for(1.0)
+    before = len(states)
+
+    second = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
+    assert ros.spin_until(lambda: not second.running, 120.0), second.output  # ends on its target reached
+    assert second.wait(timeout=1) == 0, second.output
+    ros.spin_for(0.5)
+    new_run = states[before:]
+    assert new_run and _t(new_run[0]) < 0.1, [_t(s) for s in new_run[:3]]
+    # The old run's cmd_vel (the robot was driving at 0.2+ m/s) never drove the new robot.
+    assert new_run[0].velocity_ref == 0.0 and new_run[0].cmd_vel_stale
+    assert not any(s.fallen for s in new_run)
+    reached = [w for w in world if w.target_reached and _t(w) < killed_at + 60.0]
+    assert reached and world[-1].collision_count == 0
+    assert "lockstep timeout at" not in second.output and "0 lockstep timeouts" in second.output, second.output[-2000:]
+    assert any(_t(p) < 1.0 for p in plans[-200:])  # the planner planned from the new t = 0
+    assert "clock jumped back" in controller.output and "clock jumped back" in planner.output
+    print(f"simulator killed at t = {killed_at:.2f} s; the new run reached its target at"
+          f" t = {_t(reached[-1]):.2f} s with {len(new_run)} control samples")
+
+
+def _run(out: Path, env: dict[str, str]) -> Path:
+    done = subprocess.run([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(out), "--quiet",
+                           "--no-figures"], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (run_dir,) = out.iterdir()
+    return run_dir
+
+
+def test_the_same_run_on_an_idle_and_on_a_loaded_machine_gives_the_same_path(tmp_path, ros_env):
+    # Before: under load the world reached the planner after the odom of its instant (world_timeout: the
+    # robot stopped without a ramp), and cmd_vel took effect at whichever state it happened to beat.
+    idle = _run(tmp_path / "idle", ros_env)
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
+    try:
+        loaded = _run(tmp_path / "loaded", ros_env)
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
+    series = [series_from_messages(read_messages(r / "bag", ["/odom", "/clock"])) for r in (idle, loaded)]
+    a, b = series
+    common, ia, ib = np.intersect1d(a.odom_t, b.odom_t, return_indices=True)
+    assert len(common) >= 0.99 * max(len(a.odom_t), len(b.odom_t))  # the recorder may miss a sample
+    gap = np.hypot(a.x_c[ia] - b.x_c[ib], a.y_c[ia] - b.y_c[ib])
+    assert gap.max() <= 1e-9, (gap.max(), common[np.argmax(gap)])
+    m = [json.loads((r / "metrics.json").read_text()) for r in (idle, loaded)]
+    for key in ("reached", "time_to_reach_s", "collisions", "min_clearance_m", "pitch_min_rad", "pitch_max_rad",
+                "lockstep_timeouts", "cmd_vel_stale_samples", "sim_time_s"):
+        assert m[0][key] == m[1][key], (key, m[0][key], m[1][key])
+    assert m[0]["lockstep_timeouts"] == 0
+    print(f"idle: real-time factor {m[0]['real_time_factor']:.2f}, loaded: {m[1]['real_time_factor']:.2f};"
+          f" {len(common)} states compared, largest gap {gap.max():.1e} m")
