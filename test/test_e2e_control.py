@@ -19,6 +19,7 @@ from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
 
+from twbr_common.param_files import node_parameters
 from twbr_msgs.msg import ControllerState, SimStatus
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.metrics import compute_metrics, series_from_messages
@@ -239,12 +240,11 @@ def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):
 
 
 def test_shipped_controller_file_matches_the_parameter_table():
-    import yaml
 
     from twbr_common.params import validate_all
     from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
 
-    params = yaml.safe_load((CONFIG / "controller.yaml").read_text())["controller_node"]["ros__parameters"]
+    params = node_parameters(CONFIG / "controller.yaml", "controller_node")
     known = {s.name for s in (*CONTROL_SPECS, *NODE_SPECS)} | {"use_sim_time"}
     assert set(params) <= known
     validate_all(CONTROL_SPECS, {k: v for k, v in params.items() if k in {s.name for s in CONTROL_SPECS}})

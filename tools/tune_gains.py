@@ -12,8 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-import yaml
-
+from twbr_common.param_files import node_parameters
 from twbr_common.params import defaults, validate_all
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_runner.tuning import (
@@ -57,7 +56,7 @@ def main() -> int:
     ap.add_argument("--params", type=Path, default=ROOT / "config" / "controller.yaml")
     ap.add_argument("--max-evaluations", type=int, default=400)
     args = ap.parse_args()
-    from_file = yaml.safe_load(args.params.read_text())["controller_node"]["ros__parameters"]
+    from_file = node_parameters(args.params, "controller_node")
     known = {s.name for s in CONTROL_SPECS}
     control = validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **{k: v for k, v in from_file.items()
                                                                          if k in known}})

@@ -12,7 +12,7 @@ import pytest
 import rclpy
 
 from twbr_common.params import ConfigError
-from twbr_common.process import PROCESS_SPECS, check_cpus, settle_process
+from twbr_common.process import PROCESS_SPECS, check_cpus, process_specs, settle_process
 from twbr_common.ros_params import declare
 
 CPUS = sorted(os.sched_getaffinity(0))
@@ -40,7 +40,7 @@ def test_pinning_moves_every_thread_including_those_started_before():
     # In a child process: pinning the test process would slow the rest of the suite.
     code = (
         "import os, threading, time\n"
-        "from twbr_common.process import pin_process\n"
+        "from twbr_common.process import process_specs, pin_process\n"
         "stop = threading.Event()\n"
         "t = threading.Thread(target=stop.wait); t.start()\n"
         f"pin_process({{{CPUS[-1]}}})\n"
@@ -63,9 +63,15 @@ def node():
     rclpy.try_shutdown(context=context)
 
 
-def test_an_integer_list_declares_with_an_empty_default_and_takes_an_override(node):
-    assert declare(node, PROCESS_SPECS)["cpu_affinity"] == [CPUS[-1]]
-    assert declare(node, PROCESS_SPECS, prefix="other.")["cpu_affinity"] == []  # not set: the default
+def test_cpu_affinity_declares_every_allowed_cpu_by_default_and_takes_an_override(node):
+    assert declare(node, process_specs())["cpu_affinity"] == [CPUS[-1]]
+    assert declare(node, process_specs(), prefix="other.")["cpu_affinity"] == CPUS  # not set: the default
+    # Every parameter has a typed value: GetParameters (`ros2 param dump`) fails for a whole request
+    # when one of them has none, as an empty list declared by its type had.
+    for name in ("cpu_affinity", "other.cpu_affinity"):
+        assert node.get_parameter(name).type_ == rclpy.Parameter.Type.INTEGER_ARRAY
+    with pytest.raises(ValueError, match="empty list"):
+        declare(node, PROCESS_SPECS, prefix="third.")
 
 
 def test_settling_freezes_the_start_up_heap():

@@ -22,7 +22,8 @@ class ParamSpec:
     """One parameter: name, default, unit, description and valid range.
 
     `low`/`high` bound numbers, and each number of a list (inclusive unless `low_open`/`high_open`);
-    `choices` bounds strings; `item` is the type of a list's numbers.
+    `choices` bounds strings; `item` is the type of a list's numbers. A `tunable` parameter may be changed
+    while the node runs (SetParameters); the others are read-only, and `fixed_because` says why.
     """
 
     name: str
@@ -35,6 +36,8 @@ class ParamSpec:
     high_open: bool = False
     choices: tuple[str, ...] | None = None
     item: type = float
+    tunable: bool = False
+    fixed_because: str = "it shapes the node's schedule, topics or buffers, set up at start-up"
 
     @property
     def kind(self) -> type:
@@ -63,7 +66,8 @@ class ParamSpec:
 
     def describe(self) -> str:
         unit = f" [{self.unit}]" if self.unit else ""
-        return f"{self.description}{unit}; valid: {self.range_text()}"
+        when = "changeable at runtime" if self.tunable else f"read-only at runtime: {self.fixed_because}"
+        return f"{self.description}{unit}; valid: {self.range_text()}; {when}"
 
     def _fail(self, value: Any, why: str = "") -> ConfigError:
         extra = f" ({why})" if why else ""
@@ -135,3 +139,16 @@ def markdown_table(specs: Iterable[ParamSpec]) -> str:
             f"| `{s.name}` | {default!s} | {s.unit} | {s.range_text()} | {s.description} |"
         )
     return "\n".join(rows)
+
+
+def tunable(*specs: ParamSpec) -> tuple[ParamSpec, ...]:
+    """The same specs, changeable while the node runs."""
+    return tuple(replace(s, tunable=True) for s in specs)
+
+
+def closest_name(name: str, known: Iterable[str]) -> str | None:
+    """The known name a typo most likely meant, or None when nothing is close."""
+    import difflib
+
+    found = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return found[0] if found else None

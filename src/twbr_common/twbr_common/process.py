@@ -16,14 +16,22 @@ import contextlib
 import gc
 import os
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec
 
 PROCESS_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("cpu_affinity", [], "CPUs this node's process runs on, every thread included (as `taskset -c`"
-              " does), e.g. [1] or [0, 2]; empty: wherever the OS schedules it", low=0, item=int),
+              " does), e.g. [1] or [0, 2]; by default every CPU the process may use", low=0, item=int),
 )
+
+
+def process_specs() -> tuple[ParamSpec, ...]:
+    """PROCESS_SPECS with the CPUs this process may use as cpu_affinity's default: rclpy cannot type an empty
+    list (it declares a byte array, or a parameter without a value that `ros2 param dump` fails on)."""
+    return tuple(replace(s, default=sorted(os.sched_getaffinity(0))) if s.name == "cpu_affinity" else s
+                 for s in PROCESS_SPECS)
 
 
 def check_cpus(cpus: list[int], allowed: set[int], name: str = "cpu_affinity") -> set[int]:
@@ -55,8 +63,9 @@ def pin_process(cpus: set[int]) -> None:
 
 def settle_process(cfg: Mapping[str, Any], log: Callable[[str], Any]) -> None:
     """Apply the process parameters (PROCESS_SPECS, validated), then freeze the start-up heap."""
-    if cfg["cpu_affinity"]:
-        cpus = check_cpus(cfg["cpu_affinity"], os.sched_getaffinity(0))
+    allowed = os.sched_getaffinity(0)
+    if cfg["cpu_affinity"] and set(cfg["cpu_affinity"]) != allowed:
+        cpus = check_cpus(cfg["cpu_affinity"], allowed)
         pin_process(cpus)
         log(f"pinned to CPU {','.join(_ranges(sorted(cpus)))}")
     gc.collect()

@@ -7,7 +7,13 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+)
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
 from rclpy.exceptions import (
@@ -17,12 +23,12 @@ from rclpy.exceptions import (
 )
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 
 from twbr_common.executor import spin_until_shutdown
 from twbr_common.guard import INPUT_SPECS, future_tolerance
+from twbr_common.param_files import check_overrides, preflight
 from twbr_common.params import ConfigError, ParamSpec
-from twbr_common.process import PROCESS_SPECS, settle_process
+from twbr_common.process import process_specs, settle_process
 from twbr_common.streams import InputStreams
 
 EXIT_CONFIG_ERROR = 2
@@ -47,7 +53,7 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
         name=spec.name,
         type=_type(spec),
         description=spec.describe(),
-        read_only=True,
+        read_only=not spec.tunable,
     )
     # rclpy enforces inclusive ranges only; open bounds are checked by spec.validate afterwards.
     if spec.kind is float and spec.low is not None and spec.high is not None:
@@ -64,8 +70,10 @@ def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[st
         name = prefix + spec.name
         shown = ParamSpec(**{**spec.__dict__, "name": name})
         default = list(spec.default) if spec.kind is list else spec.default
-        if default == []:  # rclpy takes an empty list for a byte array: declare the type, without a value
-            default = Parameter.Type(_type(spec))
+        if default == []:
+            # rclpy types an empty list as a byte array, and a parameter declared without a value makes
+            # GetParameters (`ros2 param dump`) fail for the whole request: give lists a non-empty default.
+            raise ValueError(f"parameter '{name}': an empty list default cannot be declared with its type")
         try:
             param = node.declare_parameter(name, default, descriptor(shown))
         except (InvalidParameterTypeException, InvalidParameterValueException, ParameterException) as e:
@@ -85,12 +93,20 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     A node with a `run()` method drives its own loop (the lockstep simulator); others are spun. Every
     node also takes the process parameters of twbr_common.process (cpu_affinity).
     """
-    rclpy.init(args=argv if argv is not None else sys.argv)
+    argv = argv if argv is not None else sys.argv
+    try:
+        preflight(argv)  # a missing or unreadable params file: one line, before rcl's traceback
+    except ConfigError as e:
+        print(f"[FATAL] [{name}]: refusing to start: {e}", file=sys.stderr, flush=True)
+        return EXIT_CONFIG_ERROR
+    rclpy.init(args=argv)
     node = None
     code = 0
     try:
         node = make_node()
-        settle_process(declare(node, PROCESS_SPECS), node.get_logger().info)
+        settle_process(declare(node, process_specs()), node.get_logger().info)
+        declared = node.list_parameters([], 0).names
+        check_overrides(argv, node.get_name(), node.get_namespace(), declared)
         if hasattr(node, "run"):
             node.run()
         else:
@@ -121,3 +137,44 @@ def input_streams(node: Node) -> InputStreams:
     # The handle must live as long as the node: dropping it unregisters the callback.
     streams.jump_handle = node.get_clock().create_jump_callback(threshold, post_callback=lambda _jump: streams.restart())
     return streams
+
+
+def accept_changes(node: Node, specs: Iterable[ParamSpec], cfg: dict[str, Any], check: Callable[[dict], dict],
+                   apply: Callable[[dict], None]) -> None:
+    """Let SetParameters (`ros2 param set`, rqt_reconfigure) change the tunable specs while the node runs.
+
+    A request is validated whole, by the same specs and the same consistency check as at start-up, and
+    either refused with the reason or applied at once by `apply(new cfg)`: the callback runs in the node's
+    executor, between two of its callbacks, so a control step never sees half of a set. Read-only
+    parameters are refused by rclpy itself (their descriptors). Register after declaring: rclpy calls this
+    callback for each declaration too.
+    """
+    by_name = {s.name: s for s in specs}
+    log = node.get_logger()
+
+    def on_set(parameters: list) -> SetParametersResult:
+        changes: dict[str, Any] = {}
+        for parameter in parameters:
+            spec = by_name.get(parameter.name)
+            if spec is None:
+                continue  # not this table's (use_sim_time, another table's)
+            if not spec.tunable:
+                return SetParametersResult(successful=False, reason=f"'{spec.name}' is read-only at runtime:"
+                                                                    f" {spec.fixed_because}")
+            try:
+                changes[spec.name] = spec.validate(parameter.value)
+            except ConfigError as e:
+                return SetParametersResult(successful=False, reason=str(e))
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            new = check({**cfg, **changes})
+        except ConfigError as e:
+            return SetParametersResult(successful=False, reason=str(e))
+        apply(new)
+        told = ", ".join(f"{k} {cfg[k]!r} -> {v!r}" for k, v in changes.items())
+        cfg.update(new)
+        log.info(f"parameters changed at runtime: {told}")
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(on_set)

@@ -2,6 +2,7 @@
 
 import itertools
 
+import numpy as np
 import pytest
 
 from twbr_common.params import defaults
@@ -105,3 +106,22 @@ def test_state_sync_decimates_fast_states_to_the_control_rate():
     gaps = [round(b - a, 6) for a, b in itertools.pairwise(computed[1:])]
     assert set(gaps) == {0.005}  # 200 Hz once on schedule
     assert len(computed) in (200, 201)
+
+
+def test_retune_changes_gains_from_the_next_sample_and_keeps_the_loops_memory():
+    from twbr_common.params import defaults
+    from twbr_control.controller_params import CONTROL_SPECS
+
+    cfg = defaults(CONTROL_SPECS)
+    a, b = CascadeController(cfg), CascadeController(cfg)
+    for i in range(20):
+        for ctl in (a, b):
+            ctl.compute(i * 0.005, 0.3, 0.2, 0.1, 0.0, 0.01, 0.0)
+    memory = a.k.copy()
+    a.retune({**cfg, "pitch.kp": 2 * cfg["pitch.kp"]})
+    assert np.array_equal(a.k, memory)  # no reset: integrals and filters carry on
+    out_a = a.compute(0.1, 0.3, 0.2, 0.1, 0.0, 0.01, 0.0)
+    out_b = b.compute(0.1, 0.3, 0.2, 0.1, 0.0, 0.01, 0.0)
+    assert out_a.common_torque != out_b.common_torque
+    with pytest.raises(ValueError):
+        a.retune({**cfg, "rate": 100.0})

@@ -179,15 +179,27 @@ class CascadeController:
     """Velocity -> pitch cascade plus yaw-rate PI, with fall cut-off, enable and reset."""
 
     def __init__(self, settings: Mapping[str, Any], enabled: bool = True) -> None:
-        self.c = settings_vector(settings)
         self.k = np.zeros(N_STATE)
         self._out = np.zeros(N_OUTPUTS)
-        self.period = float(self.c[C_PERIOD])
-        self.max_torque = float(self.c[C_MAX_TORQUE])
-        self.velocity_pid = Pid(PidGains(*self.c[C_VELOCITY:C_PITCH]), self.k[K_VELOCITY:K_PITCH])
-        self.pitch_pid = Pid(PidGains(*self.c[C_PITCH:C_YAW_RATE]), self.k[K_PITCH:K_YAW_RATE])
-        self.yaw_rate_pid = Pid(PidGains(*self.c[C_YAW_RATE:]), self.k[K_YAW_RATE:])
+        self.retune(settings)
         self.k[K_ENABLED] = 1.0 if enabled else 0.0
+
+    def retune(self, settings: Mapping[str, Any]) -> None:
+        """New gains and limits from the next sample on; the loops keep their memory (no bump but the gains')."""
+        c = settings_vector(settings)
+        if hasattr(self, "c") and c[C_PERIOD] != self.c[C_PERIOD]:
+            raise ValueError("the control rate cannot change while running")
+        self.c = c
+        self.period = float(c[C_PERIOD])
+        self.max_torque = float(c[C_MAX_TORQUE])
+        loops = ((C_VELOCITY, C_PITCH, K_VELOCITY, K_PITCH, "velocity_pid"),
+                 (C_PITCH, C_YAW_RATE, K_PITCH, K_YAW_RATE, "pitch_pid"), (C_YAW_RATE, None, K_YAW_RATE, None, "yaw_rate_pid"))
+        for c0, c1, k0, k1, name in loops:
+            gains = PidGains(*c[c0:c1])
+            if hasattr(self, name):  # the memory views stay: Pid() would reset them
+                getattr(self, name).gains, getattr(self, name).g = gains, gains.vector()
+            else:
+                setattr(self, name, Pid(gains, self.k[k0:k1]))
 
     def warm_up(self) -> None:
         """Load the compiled kernel now, on a copy: from numba's cache that takes about 0.5 s, which

@@ -20,9 +20,10 @@ from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
 from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import RATE_LIMIT
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
-from twbr_common.ros_params import declare, input_streams, run_node
+from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
 from twbr_control.state_sync import Action, RobotState, StateSync
@@ -55,6 +56,9 @@ class ControllerNode(Node):
         else:
             self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_QOS)
         self.create_service(SetBool, "~/enable", self._on_enable)
+        self.graph = GraphWatch(self, ["wheel_torque_cmd", "controller_state"])
+        self.parameter_revision = 0
+        accept_changes(self, (*CONTROL_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
         self.get_logger().info(
             f"cascaded PID at up to {cfg['rate']:g} Hz, cmd_vel as {'TwistStamped' if stamped else 'Twist'},"
             f" {'enabled' if cfg['start_enabled'] else 'disabled until ~/enable'}"
@@ -116,6 +120,10 @@ class ControllerNode(Node):
         self.get_logger().info(response.message)
         return response
 
+    def _retune(self, cfg: dict) -> None:
+        self.controller.retune(cfg)
+        self.parameter_revision += 1
+
     # --- control ------------------------------------------------------------------------------
     def _act(self, action: Action, state: RobotState | None) -> None:
         if action is Action.REPEAT and self._last_command is not None:
@@ -136,7 +144,7 @@ class ControllerNode(Node):
         command.header.frame_id = "base_link"
         self.pub_torque.publish(command)
         self._last_command = command
-        self.pub_state.publish(controller_state_message(out, command.header))
+        self.pub_state.publish(controller_state_message(out, command.header, self.parameter_revision))
         if out.fallen and not self._reported_fall:
             self._reported_fall = True
             self.get_logger().error(
@@ -145,8 +153,8 @@ class ControllerNode(Node):
             )
 
 
-def controller_state_message(out: ControlOutput, header) -> ControllerState:
-    msg = ControllerState(header=header)
+def controller_state_message(out: ControlOutput, header, parameter_revision: int = 0) -> ControllerState:
+    msg = ControllerState(header=header, parameter_revision=parameter_revision)
     for name in ControlOutput.__dataclass_fields__:
         if name != "stamp":
             setattr(msg, name, type(getattr(msg, name))(getattr(out, name)))

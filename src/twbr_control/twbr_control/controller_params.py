@@ -5,9 +5,9 @@ The gain defaults are the ones config/controller.yaml carries (tools/tune_gains.
 
 from __future__ import annotations
 
-from twbr_common.params import ConfigError, ParamSpec
+from twbr_common.params import ConfigError, ParamSpec, tunable
 
-GAIN_SPECS: tuple[ParamSpec, ...] = (
+GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
     ParamSpec("velocity.kp", 0.4529, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
     ParamSpec("velocity.ki", 0.6938, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
     ParamSpec("velocity.kd", 0.0, "velocity loop: derivative gain on the measured speed", "rad·s²/m", 0.0, 100.0),
@@ -27,7 +27,7 @@ GAIN_SPECS: tuple[ParamSpec, ...] = (
 CONTROL_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("rate", 200.0, "control rate: one command per state at most this often (in lockstep, set the"
               " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
-    ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
+    *tunable(ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
@@ -36,7 +36,7 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("max_wheel_torque", 15.0, "motor torque limit per wheel: commands are limited to it", "N·m",
               0.0, 1000.0, low_open=True),
     ParamSpec("fall_pitch", 0.6, "|pitch - pitch_offset| past this is a fall: zero torque until re-enabled",
-              "rad", 0.05, 1.5),
+              "rad", 0.05, 1.5)),
     ParamSpec("max_sample_gap", 0.05, "a longer gap between states restarts the derivatives and caps the"
               " integration step", "s", 0.001, 1.0),
     *GAIN_SPECS,

@@ -342,6 +342,11 @@ class ApfPlanner:
     def reset(self) -> None:
         self.m[:] = 0.0
 
+    def retune(self, g: Mapping[str, Any]) -> None:
+        """New gains and limits from the next plan on; the memory (slew limits, progress) is kept."""
+        self.g = dict(g)
+        self.a = settings_vector(self.g)
+
     def warm_up(self) -> None:
         """Load the compiled kernels now, on a copy, so the first planning instant is not 0.5 s late."""
         copy.deepcopy(self).step(0.0, 0.0, 0.0, 0.0, 0.0, Target(5.0, 0.0, 0.0, 0.0),

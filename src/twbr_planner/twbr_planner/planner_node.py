@@ -22,10 +22,11 @@ from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.markers import arrow
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
-from twbr_common.ros_params import declare, input_streams, run_node
+from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
@@ -63,6 +64,9 @@ class PlannerNode(Node):
         self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_timer(0.02, self._plan_overdue)
+        self.graph = GraphWatch(self, ["cmd_vel", "planner_state"])
+        self.parameter_revision = 0
+        accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
         self.get_logger().info(
             f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"
             f" K_o {self.cfg['k_o']:g}, rho_o {self.cfg['rho_o']:g} m, K_s {self.cfg['k_s']:g},"
@@ -126,6 +130,10 @@ class PlannerNode(Node):
             self._pending = (msg, stamp, p.x, p.y, yaw, speed, time.monotonic() + self.cfg["world_wait"])
             self._plan_pending()
 
+    def _retune(self, cfg: dict) -> None:
+        self.core.retune(cfg)
+        self.parameter_revision += 1
+
     # --- planning -----------------------------------------------------------------------------
     def _world_current(self, stamp: float) -> bool:
         """Target and obstacles of the planning instant `stamp` are in (stamped after stamp - world_period)."""
@@ -179,7 +187,7 @@ class PlannerNode(Node):
             self.pub_cmd.publish(cmd)
         else:
             self.pub_cmd.publish(twist)
-        self.pub_state.publish(planner_state_message(out, odom, self.cfg))
+        self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision))
         if self._marker_due.due(out.stamp):
             self.pub_markers.publish(force_markers(out, odom, x, y))
 
@@ -188,8 +196,8 @@ def _vector(v: np.ndarray) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=0.0)
 
 
-def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict) -> PlannerState:
-    msg = PlannerState()
+def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, parameter_revision: int = 0) -> PlannerState:
+    msg = PlannerState(parameter_revision=parameter_revision)
     for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance"):
         setattr(msg, name, float(cfg[name]))
     msg.header.stamp = odom.header.stamp

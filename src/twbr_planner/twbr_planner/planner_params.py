@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from twbr_common.params import ConfigError, ParamSpec
+from twbr_common.params import ConfigError, ParamSpec, tunable
 
 APF_SPECS: tuple[ParamSpec, ...] = (
+    *tunable(
     ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
               low_open=True),
     ParamSpec("k_v", 0.5, "K_v: attractive gain on the target's relative velocity (eq. 21)", "1/s", 0.0, 1000.0),
@@ -27,10 +28,11 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " leans about a/g to accelerate)", "m/s²", 0.0, 100.0, low_open=True),
     ParamSpec("max_yaw_acceleration", 1.0, "limit of the yaw-rate command's rate of change", "rad/s²", 0.0, 1000.0,
               low_open=True),
+    ),
     ParamSpec("stuck_time", 8.0, "no progress over this long is reported as stuck (a local minimum)", "s",
               0.1, 1000.0),
-    ParamSpec("stuck_progress", 0.2, "progress towards the target below this over stuck_time is no progress", "m",
-              0.0, 100.0),
+    *tunable(ParamSpec("stuck_progress", 0.2, "progress towards the target below this over stuck_time is no"
+                       " progress", "m", 0.0, 100.0)),
 )
 
 NODE_SPECS: tuple[ParamSpec, ...] = (

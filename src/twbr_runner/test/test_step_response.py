@@ -7,6 +7,7 @@ test/test_e2e_runner.py checks the same figures through the real nodes and the r
 import numpy as np
 import pytest
 
+from twbr_common.param_files import node_parameters
 from twbr_common.params import defaults
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_runner.response import settle_time, step_response
@@ -61,11 +62,10 @@ def test_untuned_lqr_start_is_worse_than_the_shipped_gains():
 
 
 def test_config_file_carries_the_shipped_gains():
-    import yaml
 
     from twbr_common.paths import config_dir
 
-    params = yaml.safe_load((config_dir() / "controller.yaml").read_text())["controller_node"]["ros__parameters"]
+    params = node_parameters(config_dir() / "controller.yaml", "controller_node")
     for name in ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight",
                  "yaw_rate.kp", "yaw_rate.ki"):
         assert params[name] == GAINS[name], name

@@ -72,6 +72,7 @@ class BagWriter:
         self._writer.open()
         self._connections: dict[str, object] = {}
         self.counts: dict[str, int] = {}
+        self.types: dict[str, str] = {}  # the type each topic is recorded as
 
     def add_topic(self, topic: str, msgtype: str, offered: Qos | None = None) -> None:
         if topic in self._connections:
@@ -80,6 +81,7 @@ class BagWriter:
             topic, msgtype, typestore=self.typestore, offered_qos_profiles=[offered or qos_profile()],
         )
         self.counts[topic] = 0
+        self.types[topic] = msgtype
 
     def write(self, topic: str, timestamp_ns: int, data: bytes) -> None:
         self._writer.write(self._connections[topic], timestamp_ns, data)

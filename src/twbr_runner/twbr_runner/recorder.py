@@ -50,6 +50,7 @@ class Recorder(Node):
         self.record_all = record_all
         self._recorded: dict[str, object] = {}
         self._matched: dict[str, int] = {}
+        self._type_conflicts: set[tuple[str, tuple[str, ...]]] = set()
         for topic, msgtype in self.wanted.items():
             if msgtype:
                 self._subscribe(topic, msgtype, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
@@ -78,9 +79,20 @@ class Recorder(Node):
                 self.get_logger().info(f"matched {count} publisher(s) on {topic}")
             self._matched[topic] = count
 
+    def _report_types(self, topic: str, types: list[str]) -> None:
+        """A publisher of another type on a recorded topic: its messages are not in the bag. Say so, once."""
+        recorded = self.writer.types.get(topic)
+        foreign = sorted(t for t in types if recorded is not None and t != recorded)
+        if foreign and (topic, tuple(foreign)) not in self._type_conflicts:
+            self._type_conflicts.add((topic, tuple(foreign)))
+            who = ", ".join(f"{p.node_namespace.rstrip('/')}/{p.node_name} [{p.topic_type}]"
+                            for p in self.get_publishers_info_by_topic(topic) if p.topic_type in foreign)
+            self.get_logger().error(f"{topic} is recorded as {recorded}; not recorded: {who or ', '.join(foreign)}")
+
     def _discover(self) -> None:
         self._report_matches()
         for topic, types in self.get_topic_names_and_types():
+            self._report_types(topic, types)
             if topic in self._recorded or topic in SKIPPED:
                 continue
             if not (self.record_all or topic in self.wanted):

@@ -28,8 +28,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from twbr_common.param_files import KNOWN_NODES, node_parameters
 from twbr_common.params import ConfigError
 from twbr_common.paths import config_dir
 from twbr_common.processes import NodeProcess, loopback_env, start_node
@@ -56,7 +55,11 @@ RECORDED_TOPICS = {
     "world_markers": "visualization_msgs/msg/MarkerArray",
     "planner_state": "twbr_msgs/msg/PlannerState",
     "planner_markers": "visualization_msgs/msg/MarkerArray",
+    "cmd_vel": "geometry_msgs/msg/Twist",
 }
+# How long the runner listens for another graph on its domain before it starts one (participants announce
+# themselves at once and then every 0.5 s: config/fastdds.xml).
+NEIGHBOUR_WAIT_S = 1.5
 EXIT_FAILED = 1
 
 
@@ -110,7 +113,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     # The simulator holds t = 0 until every odom subscriber of the graph (recorder, controller, planner)
     # is matched, and, with a planner, waits for its output at every planning instant as well.
     planner = scenario.target is not None
-    planner_rate = yaml.safe_load((config / "planner.yaml").read_text())["planner_node"]["ros__parameters"].get(
+    planner_rate = node_parameters(config / "planner.yaml", "planner_node").get(
         "rate", 20.0) if planner else 0.0
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
         *params_files(config, "robot.yaml", "sim.yaml"),
@@ -153,6 +156,21 @@ class Progress:
         with _SIGNALS.deferred():
             self.node.create_subscription(SimStatus, "sim_status", on_status, WORLD_QOS)
             self.node.create_subscription(WorldStatus, "world_status", on_world, WORLD_QOS)
+
+    def neighbours(self, listen_s: float) -> list[str]:
+        """Nodes of another twbr graph, and publishers on the contract's topics, already on this domain."""
+        deadline = time.monotonic() + listen_s
+        while time.monotonic() < deadline:
+            self.spin(0.1)
+        found = []
+        with _SIGNALS.deferred():
+            for name, namespace in self.node.get_node_names_and_namespaces():
+                if name in (*KNOWN_NODES, "recorder"):
+                    found.append(f"node {namespace.rstrip('/')}/{name}")
+            for topic in RECORDED_TOPICS:
+                for p in self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic)):
+                    found.append(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
+        return sorted(set(found))
 
     def spin(self, seconds: float) -> None:
         with _SIGNALS.deferred():
@@ -235,6 +253,10 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     sim_wall: float | None = None
     try:
         progress = Progress(domain)
+        neighbours = progress.neighbours(NEIGHBOUR_WAIT_S)
+        if neighbours:
+            raise RuntimeError(f"another graph is already on ROS_DOMAIN_ID {domain}: {'; '.join(neighbours[:6])}"
+                               f"{' ...' if len(neighbours) > 6 else ''} (stop it, or run with --domain N)")
         for spec in nodes:
             if spec.label == "sim":
                 # Discovery between two processes can take seconds: start the clock only once the

@@ -2,9 +2,9 @@ import math
 from pathlib import Path
 
 import pytest
-import yaml
 
 from twbr_common.guard import Verdict
+from twbr_common.param_files import node_parameters
 from twbr_common.params import ConfigError, defaults
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
@@ -19,12 +19,12 @@ def make(**overrides):
 
 
 def test_robot_yaml_holds_the_design_defaults():
-    values = yaml.safe_load((CONFIG / "robot.yaml").read_text())["sim_node"]["ros__parameters"]
+    values = node_parameters(CONFIG / "robot.yaml", "sim_node")
     assert values == defaults(ROBOT_SPECS)
 
 
 def test_sim_yaml_declares_only_known_parameters_with_valid_values():
-    values = yaml.safe_load((CONFIG / "sim.yaml").read_text())["sim_node"]["ros__parameters"]
+    values = node_parameters(CONFIG / "sim.yaml", "sim_node")
     values.pop("use_sim_time")
     specs = {s.name: s for s in SIM_SPECS}
     assert set(values) == set(specs)

@@ -20,6 +20,7 @@ from visualization_msgs.msg import MarkerArray
 
 from twbr_common.executor import new_executor
 from twbr_common.geometry import quaternion_from_rpy
+from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import DropReport, Verdict
 from twbr_common.params import ConfigError
 from twbr_common.ros_io import (
@@ -84,6 +85,8 @@ class SimNode(Node):
             self.pub_world_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
             self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
         self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
+        owned = ["/clock", "odom", "imu", "joint_states", "sim_status"]
+        self.graph = GraphWatch(self, owned + (["target", "obstacles", "world_status"] if self.hosting_world else []))
         # Lockstep with the planner too: it is not in the torque loop, and a starved planner process would
         # otherwise fall behind a simulator running faster than real time (its cmd_vel then goes stale).
         self._last_assessment = None

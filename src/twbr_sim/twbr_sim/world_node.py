@@ -11,6 +11,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
+from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
@@ -56,6 +57,7 @@ class WorldNode(Node):
         self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_timer(1.0 / cfg["rate"], self._tick)
+        self.graph = GraphWatch(self, ["target", "obstacles", "world_status"])
         self.get_logger().info(
             f"world of scenario {scenario.name} (seed {seed}) on {'sim' if self.sim_time else 'wall'} time"
         )
