@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 
@@ -24,7 +25,8 @@ class GraphWatch:
         self.owned = [node.resolve_topic_name(t) for t in owned]
         self._reported: set[str] = set()
         self.findings: list[str] = []
-        node.create_timer(period, self.check)
+        # Wall time: a node on sim time has no clock while nothing publishes /clock, and is watched all the same.
+        node.create_timer(period, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _topics(self) -> dict[str, str]:
         """Every topic this node publishes or subscribes, with its type."""
@@ -35,21 +37,29 @@ class GraphWatch:
 
     def check(self) -> list[str]:
         node = self.node
-        me = (node.get_name(), node.get_namespace())
         found = []
         for topic, ours in self._topics().items():
-            others = [p for p in node.get_publishers_info_by_topic(topic) if (p.node_name, p.node_namespace) != me]
-            for p in others:
-                who = f"{p.node_namespace.rstrip('/')}/{p.node_name}"
+            publishers = node.get_publishers_info_by_topic(topic)
+            for p in publishers:
                 if p.topic_type != ours:
-                    found.append(f"a publisher of {p.topic_type} on {topic} ({who}): the contract's type is {ours}"
-                                 " and its messages cannot reach this node")
-                elif topic in self.owned:
-                    found.append(f"a second publisher on {topic}, which this node owns: {who} (another graph on"
-                                 " this ROS_DOMAIN_ID?); the nodes reading it now mix two sources")
+                    found.append(f"a publisher of {p.topic_type} on {topic} ({_who(p)}): the contract's type is"
+                                 f" {ours} and its messages cannot reach this node")
+            if topic in self.owned:
+                # Counted, not named: a second graph's node has the same name as this one.
+                mine = sum(1 for pub in node.publishers if pub.topic_name == topic)
+                same_type = [p for p in publishers if p.topic_type == ours]
+                if len(same_type) > mine:
+                    who = ", ".join(sorted({_who(p) for p in same_type}))
+                    found.append(f"a second publisher on {topic}, which this node owns ({len(same_type) - mine} more,"
+                                 f" from {who}): another graph on this ROS_DOMAIN_ID? Nodes reading {topic} now"
+                                 " mix two sources")
         for line in found:
             if line not in self._reported:
                 node.get_logger().error(line)
         self._reported = set(found)
         self.findings = found
         return found
+
+
+def _who(info) -> str:
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"

@@ -18,6 +18,7 @@ import time
 import numpy as np
 from geometry_msgs.msg import Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
@@ -63,7 +64,8 @@ class PlannerNode(Node):
         self.create_subscription(Odometry, "target", self._on_target, WORLD_QOS)
         self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
-        self.create_timer(0.02, self._plan_overdue)
+        # On wall time: a lockstep simulator waiting for this plan sends no /clock meanwhile.
+        self.create_timer(0.02, self._plan_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.graph = GraphWatch(self, ["cmd_vel", "planner_state"])
         self.parameter_revision = 0
         accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)

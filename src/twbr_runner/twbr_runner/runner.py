@@ -162,15 +162,15 @@ class Progress:
         deadline = time.monotonic() + listen_s
         while time.monotonic() < deadline:
             self.spin(0.1)
-        found = []
+        nodes, publishers = set(), set()
         with _SIGNALS.deferred():
             for name, namespace in self.node.get_node_names_and_namespaces():
                 if name in (*KNOWN_NODES, "recorder"):
-                    found.append(f"node {namespace.rstrip('/')}/{name}")
+                    nodes.add(f"node {namespace.rstrip('/')}/{name}")
             for topic in RECORDED_TOPICS:
                 for p in self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic)):
-                    found.append(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
-        return sorted(set(found))
+                    publishers.add(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
+        return sorted(nodes) + sorted(publishers)
 
     def spin(self, seconds: float) -> None:
         with _SIGNALS.deferred():
@@ -180,6 +180,10 @@ class Progress:
         self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+class GraphBusy(RuntimeError):
+    """Another graph's nodes or publishers are on the run's domain: the two would mix silently."""
 
 
 class Interrupted(Exception):
@@ -227,6 +231,12 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     scenario = load_scenario(scenario_path)
     seed = scenario.seed if opts.seed is None else opts.seed
     domain = opts.domain if opts.domain is not None else int(os.environ.get("ROS_DOMAIN_ID", "0"))
+    progress = Progress(domain)  # before anything is written: a run beside another graph is refused whole
+    neighbours = progress.neighbours(NEIGHBOUR_WAIT_S)
+    if neighbours:
+        progress.close()
+        raise GraphBusy(f"another graph is already on ROS_DOMAIN_ID {domain}: {'; '.join(neighbours[:6])}"
+                        f"{' ...' if len(neighbours) > 6 else ''} (stop it, or run with --domain N)")
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     run_dir = opts.out_root / f"{scenario.name}-{stamp}"
     n = 1
@@ -248,15 +258,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     _SIGNALS.pending = None
     previous = {s: signal.signal(s, _SIGNALS.handler) for s in (signal.SIGINT, signal.SIGTERM)}
     code, reason = 0, "completed"
-    progress: Progress | None = None
     wall_start = time.monotonic()
     sim_wall: float | None = None
     try:
-        progress = Progress(domain)
-        neighbours = progress.neighbours(NEIGHBOUR_WAIT_S)
-        if neighbours:
-            raise RuntimeError(f"another graph is already on ROS_DOMAIN_ID {domain}: {'; '.join(neighbours[:6])}"
-                               f"{' ...' if len(neighbours) > 6 else ''} (stop it, or run with --domain N)")
         for spec in nodes:
             if spec.label == "sim":
                 # Discovery between two processes can take seconds: start the clock only once the
@@ -307,10 +311,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             proc.stop()
         if "recorder" in procs:
             procs["recorder"].stop()
-        if progress is not None:
-            progress.close()
+        progress.close()
     if code != 0:
-        _say(opts, f"run_scenario: {reason}")
+        print(f"run_scenario: {reason}", file=sys.stderr, flush=True)  # even with --quiet
     metrics = analyse(run_dir, bag_dir, scenario, seed, sim_wall, time.monotonic() - wall_start, reason, opts)
     if metrics is None and code == 0:
         code = EXIT_FAILED
@@ -407,6 +410,9 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as e:
         print(f"run_scenario: {e}", file=sys.stderr)
         return 2
+    except GraphBusy as e:
+        print(f"run_scenario: refusing to start: {e}", file=sys.stderr)
+        return EXIT_FAILED
     return code
 
 
