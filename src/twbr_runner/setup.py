@@ -22,6 +22,7 @@ setup(
             "run_scenario = twbr_runner.runner:main",
             "check_driver = twbr_runner.check_driver:main",
             "montecarlo = twbr_runner.montecarlo:main",
+            "recover_bag = twbr_runner.recover_bag:main",
         ],
     },
 )

@@ -1,12 +1,15 @@
 """Node processes started the way a user starts them in separate terminals (`ros2 run` paths).
 
 Used by the demo, the benchmarks and the end-to-end tests: each process gets its own session, its
-output goes to files, and stop() ends the whole process group (SIGINT first, then SIGKILL).
+output goes to files, and stop() ends the whole process group (SIGINT first, then SIGKILL). Each dies
+with the process that started it (SIGTERM from the kernel, PR_SET_PDEATHSIG): a runner killed with
+SIGKILL leaves no recorder holding a bag open and no controller commanding a robot.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import signal
 import subprocess
@@ -55,6 +58,23 @@ def loopback_env(domain_id: int, base: dict[str, str] | None = None) -> dict[str
     return env
 
 
+_PR_SET_PDEATHSIG = 1
+
+
+def _child_setup(parent: int, niceness: int):
+    """What a started node does before it runs: die with its parent, and yield the CPU if asked."""
+    libc = ctypes.CDLL(None, use_errno=True)
+
+    def setup() -> None:
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:  # the parent died before prctl took effect
+            os._exit(1)
+        if niceness:
+            os.nice(niceness)
+
+    return setup
+
+
 class NodeProcess:
     def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str, niceness: int = 0) -> None:
         self.name = name
@@ -64,7 +84,7 @@ class NodeProcess:
         self._out = self.stdout_path.open("w")
         self._err = self.stderr_path.open("w")
         self.proc = subprocess.Popen(argv, env=env, stdout=self._out, stderr=self._err, start_new_session=True,
-                                     preexec_fn=(lambda: os.nice(niceness)) if niceness else None)
+                                     preexec_fn=_child_setup(os.getpid(), niceness))
 
     def wait(self, timeout: float) -> int:
         return self.proc.wait(timeout=timeout)

@@ -59,3 +59,37 @@ def test_metadata_is_what_ros2_bag_info_reads(tmp_path):
     for key in ("version", "storage_identifier", "duration", "starting_time", "message_count",
                 "topics_with_message_count", "relative_file_paths", "files"):
         assert key in meta
+
+
+def test_a_bag_cut_short_by_a_killed_recorder_is_recovered_whole_up_to_the_cut(tmp_path):
+    # Before: a recorder killed with SIGKILL left an MCAP file without its summary and no metadata.yaml, and
+    # every reader refused all of it.
+    from twbr_runner.recover_bag import main as recover_main
+
+    store = typestore_with(["twbr_msgs/msg/ObstacleArray"], _share)
+    array, obstacle = store.types["twbr_msgs/msg/ObstacleArray"], store.types["twbr_msgs/msg/Obstacle"]
+    header, time = store.types["std_msgs/msg/Header"], store.types["builtin_interfaces/msg/Time"]
+    point, vector = store.types["geometry_msgs/msg/Point"], store.types["geometry_msgs/msg/Vector3"]
+    writer = BagWriter(tmp_path / "bag", store)
+    writer.add_topic("/obstacles", "twbr_msgs/msg/ObstacleArray")
+    for k in range(1500):  # about 4 kB each: several chunks
+        msg = array(header=header(stamp=time(sec=k, nanosec=0), frame_id="odom"),
+                    obstacles=[obstacle(id=i, position=point(x=float(k), y=float(i), z=0.0),
+                                        velocity=vector(x=0.0, y=0.0, z=0.0), radius=0.5) for i in range(100)])
+        writer.write("/obstacles", 10_000 + k, store.serialize_cdr(msg, "twbr_msgs/msg/ObstacleArray"))
+    writer.close()
+    (mcap,) = (tmp_path / "bag").glob("*.mcap")
+    whole = mcap.read_bytes()
+    mcap.write_bytes(whole[: int(0.7 * len(whole))])  # the power cut
+    (tmp_path / "bag" / "metadata.yaml").unlink()
+    with pytest.raises(BagError):
+        bag_info(tmp_path / "bag")
+
+    assert recover_main([str(tmp_path / "bag")]) == 0
+    info = bag_info(tmp_path / "bag")
+    msgs = read_messages(tmp_path / "bag")["/obstacles"]
+    assert 0.5 * 1500 < len(msgs) == info["message_count"] < 1500  # every whole chunk before the cut
+    assert [t for t, _ in msgs] == list(range(10_000, 10_000 + len(msgs)))  # in order, none invented
+    last = msgs[-1][1]
+    assert last.header.stamp.sec == len(msgs) - 1 and last.obstacles[99].position.y == 99.0
+    assert (tmp_path / "bag" / (mcap.name + ".cut")).exists()  # the original is kept

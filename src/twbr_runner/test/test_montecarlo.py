@@ -127,3 +127,39 @@ def test_progress_in_a_log_is_a_line_per_tenth_and_on_a_terminal_one_bar(capsys)
         mc._progress(done, done, 10, 0.1 * done, tty=True)
     err = capsys.readouterr().err
     assert err.count("\r") == 10 and "\n" not in err
+
+
+def test_a_scenario_without_target_and_an_unwritable_out_are_refused_in_one_line(course, tmp_path, capsys):
+    # Before: a study of a scripted scenario ran and reported 0 % success; an unwritable --out was a traceback.
+    assert mc.main(["step", "--out", str(tmp_path / "out")]) == mc.EXIT_BAD_INPUT
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "has no target" in err[0]
+    (tmp_path / "a_file").write_text("")
+    assert mc.main([str(course), "--out", str(tmp_path / "a_file" / "out")]) == mc.EXIT_BAD_INPUT
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot write to --out" in err[0], err
+
+
+def test_sigterm_ends_a_study_as_the_runner_does_exit_143_rows_kept(course, tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "twbr_runner.montecarlo", str(course), "-n", "4000", "--chunk",
+                             "40", "--out", str(tmp_path / "out"), "--no-figure"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    csv_path = None
+    while time.monotonic() < deadline and proc.poll() is None:
+        found = list((tmp_path / "out").glob("*/runs.csv"))
+        if found and len(found[0].read_text().splitlines()) > 40:
+            csv_path = found[0]
+            break
+        time.sleep(0.2)
+    assert csv_path is not None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, (out, err)
+    kept = len(csv_path.read_text().splitlines()) - 1
+    assert 40 <= kept < 4000 and f"{kept} finished runs kept" in err

@@ -191,8 +191,26 @@ def _ignore_interrupts() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+class Interrupted(KeyboardInterrupt):
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
 def _interrupt(signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+    raise Interrupted(signum)
+
+
+def writable_dir(path: Path) -> Path:
+    """`path`, created if need be, or ConfigError in one line when it cannot be written."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".twbr-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise ConfigError(f"cannot write to --out {path}: {e.strerror or e}") from None
+    return path
 
 
 def _chunks(study: Study, size: int) -> list[list[int]]:
@@ -401,6 +419,10 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError(f"invalid --chunk {opts.chunk}: must be at least 1")
         if opts.scheduler is not None and opts.engine != "batch":
             raise ConfigError("--scheduler runs the batch engine: leave out --engine scalar")
+        if load_scenario(study.scenario).target is None:
+            raise ConfigError(f"scenario {study.scenario}: has no target, and a study measures reaching it"
+                              " (run a scripted scenario with run_scenario)")
+        writable_dir(opts.out)
     except ConfigError as e:
         print(f"montecarlo: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -413,15 +435,17 @@ def main(argv: list[str] | None = None) -> int:
           flush=True)
     started = time.monotonic()
     signal.signal(signal.SIGTERM, _interrupt)
+    signal.signal(signal.SIGINT, _interrupt)
     try:
         rows = run_study(study, out_dir, opts.engine, opts.workers, opts.chunk, opts.scheduler)
     except ConfigError as e:
         print(f"\nmontecarlo: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        kept = sum(1 for _ in (out_dir / "runs.csv").open()) - 1
-        print(f"\nmontecarlo: interrupted; {kept} finished runs kept in {out_dir / 'runs.csv'}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as e:
+        csv_path = out_dir / "runs.csv"
+        kept = sum(1 for _ in csv_path.open()) - 1 if csv_path.exists() else 0
+        print(f"\nmontecarlo: interrupted; {kept} finished runs kept in {csv_path}", file=sys.stderr)
+        return 128 + e.signum if isinstance(e, Interrupted) else EXIT_INTERRUPTED  # 143 on SIGTERM, as the runner
     summary = summarise(rows, study, time.monotonic() - started, "dask" if opts.scheduler else opts.engine)
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if not opts.no_figure:

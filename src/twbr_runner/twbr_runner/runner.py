@@ -243,6 +243,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     while run_dir.exists():
         n += 1
         run_dir = opts.out_root / f"{scenario.name}-{stamp}-{n}"
+    if opts.out_root.resolve() not in run_dir.resolve().parents:
+        raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)

@@ -66,6 +66,15 @@ BASE = {"duration": 10.0, "target": {"position": [1.0, 2.0]}, "obstacles": [{"po
         (lambda d: d.update(commands=[{"t": 1.0, "v": 9.0}]), "'commands[0].v' = 9.0: must be [-5, 5] m/s"),
         (lambda d: (d.pop("target"), d.update(end_on_target=True)), "'end_on_target'"),
         (lambda d: d.update(robot=[0, 0]), "'robot': must be a mapping"),
+        # Before: a ZeroDivisionError traceback, a robot or a target inside an obstacle accepted, and a name
+        # that wrote the run outside --out.
+        (lambda d: d["obstacles"][0].update(heading="3pi/0"), "'obstacles[0].heading' = '3pi/0': divides by zero"),
+        (lambda d: d.update(name="../../etc/cron.d/x"), "invalid field 'name' = '../../etc/cron.d/x'"),
+        (lambda d: d.update(name=".hidden"), "invalid field 'name'"),
+        (lambda d: d.update(obstacles=[{"id": 4, "position": [0.1, 0.2], "radius": 0.5}]),
+         "'robot' = [0, 0]: inside obstacle 4"),
+        (lambda d: d.update(obstacles=[{"id": 5, "position": d["target"]["position"], "radius": 0.3}]),
+         "'target.position'"),
     ],
 )
 def test_malformed_scenarios_are_refused_naming_the_field(edit, message):
@@ -79,7 +88,7 @@ def test_malformed_scenarios_are_refused_naming_the_field(edit, message):
 
 
 def test_angles_accept_multiples_of_pi():
-    d = {"duration": 1.0, "obstacles": [{"position": [0, 0], "radius": 1, "speed": 1, "heading": h}
+    d = {"duration": 1.0, "obstacles": [{"position": [5, 0], "radius": 1, "speed": 1, "heading": h}
                                         for h in ("3pi/4", "-pi/2", "pi", "0.5")]}
     sc = parse_scenario(d)
     headings = [math.atan2(o.vy, o.vx) for o in sc.obstacles]

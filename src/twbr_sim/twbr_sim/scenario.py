@@ -19,6 +19,7 @@ import yaml
 from twbr_common.jit import kernel
 from twbr_common.params import ConfigError, ParamSpec
 
+_NAME_RE = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
 _PI_RE = re.compile(r"^\s*(-?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+\.?\d*))?\s*$")
 
 
@@ -34,7 +35,11 @@ def parse_angle(value: Any, where: str) -> Any:
             raise ConfigError(f"invalid field '{where}' = {value!r}: must be a number [rad] or like '3pi/4'")
         coef = m.group(1)
         k = -1.0 if coef == "-" else (1.0 if coef in ("", "+") else float(coef))
-        return k * math.pi / (float(m.group(2)) if m.group(2) else 1.0)
+        divisor = float(m.group(2)) if m.group(2) else 1.0
+        if divisor == 0.0:
+            raise ConfigError(f"invalid field '{where}' = {value!r}: divides by zero; must be a number [rad] or"
+                              " like '3pi/4'")
+        return k * math.pi / divisor
     return value
 
 
@@ -155,6 +160,10 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         raise ConfigError(f"scenario {source or name}: must be a mapping of fields")
     raw = dict(raw)
     name = str(raw.pop("name", name))
+    if not _NAME_RE.match(name):
+        # The name becomes a directory under the runner's --out: no separators, no climbing out of it.
+        raise ConfigError(f"invalid field 'name' = {name!r}: must be letters, digits, '_', '-' and '.', not"
+                          " starting with '.'")
     description = str(raw.pop("description", ""))
     robot_raw = raw.pop("robot", None)
     target_raw = raw.pop("target", None)
@@ -193,6 +202,14 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         if commands and cm["t"] <= commands[-1].t:
             raise ConfigError(f"invalid field 'commands[{k}].t' = {cm['t']}: times must increase")
         commands.append(CommandStep(cm["t"], cm["v"], cm["w"]))
+    points = [("robot", robot["x"], robot["y"])] + ([("target.position", target.x, target.y)] if target else [])
+    for o in obstacles:
+        # At t = 0: a robot that starts inside an obstacle has collided already, a target inside one is never
+        # reached.
+        for what, x, y in points:
+            if math.hypot(x - o.x, y - o.y) < o.radius:
+                raise ConfigError(f"invalid field '{what}' = [{x:g}, {y:g}]: inside obstacle {o.id} (centre"
+                                  f" [{o.x:g}, {o.y:g}], radius {o.radius:g} m) at t = 0")
     if top["end_on_target"] and target is None:
         raise ConfigError("invalid field 'end_on_target' = True: the scenario has no target")
     return Scenario(
