@@ -242,10 +242,11 @@ def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):
 def test_shipped_controller_file_matches_the_parameter_table():
 
     from twbr_common.params import validate_all
+    from twbr_common.guard import INPUT_SPECS
     from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
 
     params = node_parameters(CONFIG / "controller.yaml", "controller_node")
-    known = {s.name for s in (*CONTROL_SPECS, *NODE_SPECS)} | {"use_sim_time"}
+    known = {s.name for s in (*CONTROL_SPECS, *NODE_SPECS, *INPUT_SPECS)} | {"use_sim_time"}
     assert set(params) <= known
     validate_all(CONTROL_SPECS, {k: v for k, v in params.items() if k in {s.name for s in CONTROL_SPECS}})
     assert np.isclose(params["rate"], 200.0)

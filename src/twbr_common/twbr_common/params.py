@@ -135,8 +135,9 @@ def markdown_table(specs: Iterable[ParamSpec]) -> str:
     rows = ["| parameter | default | unit | valid | meaning |", "|---|---|---|---|---|"]
     for s in specs:
         default = str(s.default).lower() if isinstance(s.default, bool) else s.default
+        runtime = " (changeable at runtime)" if s.tunable else ""
         rows.append(
-            f"| `{s.name}` | {default!s} | {s.unit} | {s.range_text()} | {s.description} |"
+            f"| `{s.name}` | {default!s} | {s.unit} | {s.range_text()} | {s.description}{runtime} |"
         )
     return "\n".join(rows)
 

@@ -16,3 +16,22 @@ def test_closing_line_round_trips():
 def test_no_stepping_no_report_and_latency_is_optional():
     assert parse_run_report("stopped at t = 0.000 s after 0 steps, 0 lockstep timeouts") is None
     assert parse_run_report("x" + rates_text(10, 1.0, 0.05)).latency_median_ms is None
+
+
+def test_latency_record_stays_the_same_size_however_long_the_run():
+    # Before: a list of every exchange's latency (about 28 MB an hour at 200 Hz in realtime mode).
+    import numpy as np
+
+    from twbr_sim.run_report import LatencyRecord
+
+    rng = np.random.default_rng(3)
+    samples = rng.gamma(4.0, 0.25e-3, size=200_000)  # ~1 ms, a tail past 2 ms
+    record = LatencyRecord()
+    size = record.counts.nbytes
+    for s in samples:
+        record.add(float(s))
+    record.add(5.0)  # a stall past the histogram: the overflow bin
+    assert record.counts.nbytes == size < 1_000_000 and record.count == len(samples) + 1
+    assert record.quantile_ms(0.5) == pytest.approx(np.median(samples) * 1e3, abs=0.002)
+    assert record.quantile_ms(0.99) == pytest.approx(np.percentile(samples, 99) * 1e3, abs=0.002)
+    assert "median" in record.text() and LatencyRecord().text() == ""
