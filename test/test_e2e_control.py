@@ -241,8 +241,8 @@ def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):
 
 def test_shipped_controller_file_matches_the_parameter_table():
 
-    from twbr_common.params import validate_all
     from twbr_common.guard import INPUT_SPECS
+    from twbr_common.params import validate_all
     from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS
 
     params = node_parameters(CONFIG / "controller.yaml", "controller_node")

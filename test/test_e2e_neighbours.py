@@ -52,16 +52,19 @@ def _check_wrong_type_reported(launch, ros, ros_env, tmp_path) -> None:
     bag = tmp_path / "bag"
     argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "-a", "cmd_vel:geometry_msgs/msg/Twist"]
     recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
-    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
-    assert ros.spin_until(lambda: "matched 1 publisher(s) on /cmd_vel" in recorder.output, 20.0), recorder.output
-    for _ in range(20):
-        right.publish(Twist())
-        ros.spin_for(0.05)
-    assert ros.spin_until(lambda: "a publisher of std_msgs/msg/String on /cmd_vel" in planner.output, 10.0)
-    assert ros.spin_until(lambda: "not recorded: /wrong_type [std_msgs/msg/String]" in recorder.output, 10.0), \
-        recorder.output
-    assert recorder.stop(timeout=10) == 0
-    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
-    assert topics["/cmd_vel"]["topic_metadata"]["type"] == "geometry_msgs/msg/Twist"
-    assert topics["/cmd_vel"]["message_count"] >= 20  # every Twist (and the planner's, if it planned)
+    try:
+        planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+        assert ros.spin_until(lambda: "matched 1 publisher(s) on /cmd_vel" in recorder.output, 20.0), recorder.output
+        for _ in range(20):
+            right.publish(Twist())
+            ros.spin_for(0.05)
+        assert ros.spin_until(lambda: "a publisher of std_msgs/msg/String on /cmd_vel" in planner.output, 10.0)
+        assert ros.spin_until(lambda: "not recorded: /wrong_type [std_msgs/msg/String]" in recorder.output, 10.0), \
+            recorder.output
+        assert recorder.stop(timeout=10) == 0
+        info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
+        assert topics["/cmd_vel"]["topic_metadata"]["type"] == "geometry_msgs/msg/Twist"
+        assert topics["/cmd_vel"]["message_count"] >= 20  # every Twist (and the planner's, if it planned)
+    finally:
+        recorder.stop(timeout=10)

@@ -60,27 +60,30 @@ def test_a_recorder_killed_with_sigkill_leaves_a_bag_that_recover_bag_makes_read
     bag = tmp_path / "bag"
     argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "-a", "odom:nav_msgs/msg/Odometry"]
     recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
-    launch("twbr_sim", "sim_node", "-p", "mode:=realtime", "-p", "wait_for_subscribers:=1",
-           params=("robot.yaml", "sim.yaml"))
-    deadline = time.monotonic() + 60
-    mcap = None
-    while time.monotonic() < deadline:
-        found = list(bag.glob("*.mcap"))
-        if found and found[0].stat().st_size > 3_000_000:  # a few chunks on disk
-            mcap = found[0]
-            break
-        time.sleep(0.2)
-    assert mcap is not None, recorder.output
-    os.kill(recorder.proc.pid, signal.SIGKILL)
-    recorder.wait(timeout=5)
-    with pytest.raises(BagError):
-        bag_info(bag)
-    done = subprocess.run([str(node_executable("twbr_runner", "recover_bag")), str(bag)], env=ros_env,
-                          capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, done.stdout + done.stderr
-    info = bag_info(bag)
-    odom = read_messages(bag, ["/odom"])["/odom"]
-    assert info["message_count"] >= len(odom) > 1000  # -a records the other topics too
-    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in odom]
-    assert stamps == sorted(stamps) and stamps[1] - stamps[0] == pytest.approx(0.005, abs=1e-9)
-    print(done.stdout.strip())
+    try:
+        launch("twbr_sim", "sim_node", "-p", "mode:=realtime", "-p", "wait_for_subscribers:=1",
+               params=("robot.yaml", "sim.yaml"))
+        deadline = time.monotonic() + 60
+        mcap = None
+        while time.monotonic() < deadline:
+            found = list(bag.glob("*.mcap"))
+            if found and found[0].stat().st_size > 3_000_000:  # a few chunks on disk
+                mcap = found[0]
+                break
+            time.sleep(0.2)
+        assert mcap is not None, recorder.output
+        os.kill(recorder.proc.pid, signal.SIGKILL)
+        recorder.wait(timeout=5)
+        with pytest.raises(BagError):
+            bag_info(bag)
+        done = subprocess.run([str(node_executable("twbr_runner", "recover_bag")), str(bag)], env=ros_env,
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stdout + done.stderr
+        info = bag_info(bag)
+        odom = read_messages(bag, ["/odom"])["/odom"]
+        assert info["message_count"] >= len(odom) > 1000  # -a records the other topics too
+        stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for _, m in odom]
+        assert stamps == sorted(stamps) and stamps[1] - stamps[0] == pytest.approx(0.005, abs=1e-9)
+        print(done.stdout.strip())
+    finally:
+        recorder.stop(timeout=10)  # a no-op once killed

@@ -42,7 +42,7 @@ class ControllerNode(Node):
         self.inputs.add("odom", cfg["state_timeout"], limit=RATE_LIMIT)
         self.inputs.add("imu", cfg["state_timeout"], limit=RATE_LIMIT)
         stamped = cfg["enable_stamped_cmd_vel"]
-        self.cmd_guard = self.inputs.add("cmd_vel", cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
+        self.inputs.add("cmd_vel", cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
         self.inputs.on_restart(self._restart)
         self._restart()
         self._reported_fall = False
@@ -77,6 +77,7 @@ class ControllerNode(Node):
         self.velocity_ref = 0.0
         self.yaw_rate_ref = 0.0
         self._next_refs: tuple[float, float, float] | None = None  # (stamp, v, omega) not yet in effect
+        self._refs_stamp: float | None = None  # the stamp of the cmd_vel in effect
         self._last_command: WheelTorques | None = None
         self._stamps: dict[str, Time] = {}
 
@@ -130,9 +131,11 @@ class ControllerNode(Node):
             self.pub_torque.publish(self._last_command)
         elif action is Action.COMPUTE and state is not None:
             if self._next_refs is not None and self._next_refs[0] < state.stamp:
-                _, self.velocity_ref, self.yaw_rate_ref = self._next_refs
+                self._refs_stamp, self.velocity_ref, self.yaw_rate_ref = self._next_refs
                 self._next_refs = None
-            stale = self.cmd_guard.is_stale(state.stamp)
+            # Judged on the cmd_vel in effect: one received but not yet in effect cannot freshen this state.
+            timeout = self.cfg["cmd_vel_timeout"]
+            stale = self._refs_stamp is None or state.stamp - self._refs_stamp > timeout
             out = self.controller.compute(state.stamp, self.velocity_ref, self.yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)
             # The newer of the two stamps, exactly as received (a lockstep simulator compares nanoseconds).

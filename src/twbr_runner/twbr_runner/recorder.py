@@ -50,7 +50,7 @@ class Recorder(Node):
         self.record_all = record_all
         self._recorded: dict[str, object] = {}
         self._matched: dict[str, int] = {}
-        self._type_conflicts: set[tuple[str, tuple[str, ...]]] = set()
+        self._type_conflicts: set[tuple[str, str]] = set()
         for topic, msgtype in self.wanted.items():
             if msgtype:
                 self._subscribe(topic, msgtype, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
@@ -82,12 +82,14 @@ class Recorder(Node):
     def _report_types(self, topic: str, types: list[str]) -> None:
         """A publisher of another type on a recorded topic: its messages are not in the bag. Say so, once."""
         recorded = self.writer.types.get(topic)
-        foreign = sorted(t for t in types if recorded is not None and t != recorded)
-        if foreign and (topic, tuple(foreign)) not in self._type_conflicts:
-            self._type_conflicts.add((topic, tuple(foreign)))
-            who = ", ".join(f"{p.node_namespace.rstrip('/')}/{p.node_name} [{p.topic_type}]"
-                            for p in self.get_publishers_info_by_topic(topic) if p.topic_type in foreign)
-            self.get_logger().error(f"{topic} is recorded as {recorded}; not recorded: {who or ', '.join(foreign)}")
+        if recorded is None or all(t == recorded for t in types):
+            return
+        # Keyed by publisher: a node's name arrives a moment after its endpoint, and is named once known.
+        who = ", ".join(sorted(f"{p.node_namespace.rstrip('/')}/{p.node_name} [{p.topic_type}]"
+                               for p in self.get_publishers_info_by_topic(topic) if p.topic_type != recorded))
+        if (topic, who) not in self._type_conflicts:
+            self._type_conflicts.add((topic, who))
+            self.get_logger().error(f"{topic} is recorded as {recorded}; not recorded: {who}")
 
     def _discover(self) -> None:
         self._report_matches()
