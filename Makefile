@@ -5,20 +5,23 @@ N ?= 100
 PERTURB ?= 0
 RUN := tools/run.sh
 
-.PHONY: all setup test unit e2e demo montecarlo bench lint clean
+.PHONY: all setup test test-long unit e2e demo montecarlo bench lint clean
 all: setup
 
 setup:
 	@bash tools/bootstrap.sh
 
 test: setup
-	@$(RUN) python -m pytest -q
+	@$(RUN) python -m pytest -q -m "not long"
+
+test-long: setup
+	@$(RUN) python -m pytest -q -m long
 
 unit: setup
-	@$(RUN) python -m pytest -q -m "not e2e"
+	@$(RUN) python -m pytest -q -m "not e2e and not long"
 
 e2e: setup
-	@$(RUN) python -m pytest -q -m e2e
+	@$(RUN) python -m pytest -q -m "e2e and not long"
 
 demo: setup
 	@$(RUN) python -m twbr_runner.runner $(SCENARIO)

@@ -85,7 +85,7 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
             warnings = drop_warnings(logs[name], stream)
             assert warnings, (name, stream, logs[name][-3000:])
             assert len(warnings) <= wall + 1, (name, stream, len(warnings), wall)
-            assert max(map(len, warnings)) < 300, max(warnings, key=len)  # one short line each
+            assert max(map(len, warnings)) < 400, max(warnings, key=len)  # one short line each (was 14.7 KB)
     reasons = " ".join(w for name, names in streams.items() for s in names for w in drop_warnings(logs[name], s))
     for reason in ("non-finite value", "absurdly large value", "no stamp", "stamp ahead of the clock"):
         assert reason in reasons, reason
