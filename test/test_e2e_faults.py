@@ -145,8 +145,12 @@ def test_planner_killed_the_robot_stops_balanced_and_a_restarted_planner_reaches
     assert ros.spin_until(lambda: _t(states[-1]) > killed_at + timeout + 4.0, 60.0)
     # The planner's last output is stamped with the state it answered: the watchdog counts from there
     # (plus the cmd_vel's way to the controller, well under 0.1 s of sim time).
+    # The planner is not in the lockstep here: on a loaded machine its last cmd_vel can reach the controller
+    # some states after the odom it answered, and the watchdog counts from that arrival.
     last_plan = max(_t(p) for p in plans)
-    after = [s for s in states if _t(s) > last_plan + timeout + 0.1]
+    first_stale = next(_t(s) for s in states if _t(s) > last_plan and s.cmd_vel_stale)
+    assert last_plan + timeout - 0.005 <= first_stale <= last_plan + timeout + 0.5, (last_plan, first_stale)
+    after = [s for s in states if _t(s) >= first_stale]
     assert all(s.cmd_vel_stale and s.velocity_ref == 0.0 and s.yaw_rate_ref == 0.0 for s in after)
     last_second = [s for s in after if _t(s) > _t(after[-1]) - 1.0]
     assert max(abs(s.velocity) for s in last_second) < 0.02  # stopped
@@ -185,14 +189,18 @@ def test_controller_killed_the_robot_side_zeroes_the_torque_reports_it_and_nothi
     assert not status[-1].command_stale and status[-1].commands_received > 100
 
     os.killpg(controller.proc.pid, signal.SIGKILL)
-    killed = time.monotonic()
+    killed, killed_sim = time.monotonic(), _t(status[-1])
     assert ros.spin_until(lambda: status[-1].command_stale, 5.0), sim.output
     noticed = time.monotonic() - killed
-    assert noticed < 0.5  # command_timeout 0.1 s of sim time, on a realtime simulator
+    # command_timeout is 0.1 s of sim time; statuses come at 20 Hz and this test sees the graph a little late.
+    # Judged in sim time: a stall of the whole machine (seen once in CI: 1.6 s) stops sim time too.
+    first_stale = next(_t(m) for m in status if m.command_stale and _t(m) > 1.0)
+    assert first_stale <= killed_sim + 0.1 + 0.15, (killed_sim, first_stale)
+    assert noticed < 5.0  # and nothing hangs
     received = status[-1].commands_received
     assert ros.spin_until(lambda: status[-1].fallen, 10.0)  # zero torque: a balancing robot falls over
-    stale_at = next(_t(m) for m in status if m.command_stale and _t(m) > 1.0)
-    print(f"controller killed: command_stale after {noticed * 1e3:.0f} ms wall (t = {stale_at:.3f} s),"
+    print(f"controller killed at t >= {killed_sim:.3f} s: command_stale after {noticed * 1e3:.0f} ms wall"
+          f" (t = {first_stale:.3f} s),"
           f" fallen at t = {_t(next(m for m in status if m.fallen)):.3f} s")
     n_cmd, steps = len(cmd_vel), status[-1].steps
     ros.spin_for(2.0)

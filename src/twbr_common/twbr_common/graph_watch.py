@@ -36,6 +36,20 @@ class GraphWatch:
         return out
 
     def check(self) -> list[str]:
+        try:
+            found = self._find()
+        except Exception:
+            if self.node.context.ok():
+                raise
+            return []  # shutting down (a signal during the query): nothing to report
+        for line in found:
+            if line not in self._reported:
+                self.node.get_logger().error(line)
+        self._reported = set(found)
+        self.findings = found
+        return found
+
+    def _find(self) -> list[str]:
         node = self.node
         found = []
         for topic, ours in self._topics().items():
@@ -53,11 +67,6 @@ class GraphWatch:
                     found.append(f"a second publisher on {topic}, which this node owns ({len(same_type) - mine} more,"
                                  f" from {who}): another graph on this ROS_DOMAIN_ID? Nodes reading {topic} now"
                                  " mix two sources")
-        for line in found:
-            if line not in self._reported:
-                node.get_logger().error(line)
-        self._reported = set(found)
-        self.findings = found
         return found
 
 
