@@ -21,9 +21,13 @@ def test_a_second_graph_on_the_same_domain_is_reported_and_the_runner_refuses_to
     # Before: the second run deadlocked, and its metrics.json reported the other run's success.
     first = launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", params=("robot.yaml", "sim.yaml"))
     second = launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", params=("robot.yaml", "sim.yaml"))
-    for sim in (first, second):
-        assert ros.spin_until(lambda s=sim: "a second publisher on /clock" in s.output, 20.0), sim.output
-        assert "ERROR" in next(line for line in sim.output.splitlines() if "second publisher on /odom" in line)
+    def reported(sim, topic: str) -> list[str]:
+        return [line for line in sim.output.splitlines() if f"a second publisher on {topic}," in line]
+
+    for sim in (first, second):  # endpoints are discovered topic by topic: each is reported once seen
+        for topic in ("/clock", "/odom", "/imu"):
+            assert ros.spin_until(lambda s=sim, t=topic: reported(s, t), 20.0), sim.output
+            assert "ERROR" in reported(sim, topic)[0]
     done = subprocess.run([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"),
                            "--quiet", "--no-figures"], env=ros_env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 1, done.stdout + done.stderr
