@@ -125,3 +125,27 @@ def test_retune_changes_gains_from_the_next_sample_and_keeps_the_loops_memory():
     assert out_a.common_torque != out_b.common_torque
     with pytest.raises(ValueError):
         a.retune({**cfg, "rate": 100.0})
+
+
+def test_a_cmd_vel_takes_effect_from_the_state_after_it_whatever_the_order_of_arrival():
+    from twbr_control.state_sync import VelocityCommand
+
+    # The planner's answer to the state at t = 1.0 arrives before, or after, that state is computed.
+    early, late = VelocityCommand(timeout=0.5), VelocityCommand(timeout=0.5)
+    early.offer(0.95, 0.1, 0.0)
+    late.offer(0.95, 0.1, 0.0)
+    assert early.at(0.995) == late.at(0.995) == (0.1, 0.0, False)
+    early.offer(1.0, 0.3, 0.2)
+    first_early = early.at(1.0)
+    first_late = late.at(1.0)
+    late.offer(1.0, 0.3, 0.2)
+    assert first_early == first_late == (0.1, 0.0, False)  # the state of its own instant: the previous one
+    assert early.at(1.005) == late.at(1.005) == (0.3, 0.2, False)
+    # Stale once the one in effect is older than the timeout; one received but not yet in effect does not
+    # freshen a state, and nothing is in effect before the first one or after a reset.
+    assert early.at(1.5) == (0.3, 0.2, False) and early.at(1.505)[2]
+    fresh = VelocityCommand(timeout=0.5)
+    fresh.offer(0.0, 0.4, 0.0)
+    assert fresh.at(0.0) == (0.0, 0.0, True)
+    early.reset()
+    assert early.at(2.0) == (0.0, 0.0, True)

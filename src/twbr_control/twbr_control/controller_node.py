@@ -6,8 +6,7 @@ a lockstep simulator waits for), and controller_state. It computes once per stat
 so it runs in sim time (use_sim_time, /clock) and in wall time alike. Service ~/enable (SetBool).
 
 A cmd_vel takes effect from the first state stamped after it (its stamp, or its arrival on the node's
-clock for a plain Twist): whether it arrived just before or just after the state of the same instant
-then never changes the command, so a lockstep run is the same on an idle and on a loaded machine.
+clock for a plain Twist): state_sync.VelocityCommand.
 """
 
 from __future__ import annotations
@@ -26,7 +25,7 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stam
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
-from twbr_control.state_sync import Action, RobotState, StateSync
+from twbr_control.state_sync import Action, RobotState, StateSync, VelocityCommand
 from twbr_msgs.msg import ControllerState, WheelTorques
 
 
@@ -38,6 +37,7 @@ class ControllerNode(Node):
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.controller.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
+        self.command = VelocityCommand(cfg["cmd_vel_timeout"])
         self.inputs = input_streams(self)
         self.inputs.add("odom", cfg["state_timeout"], limit=RATE_LIMIT)
         self.inputs.add("imu", cfg["state_timeout"], limit=RATE_LIMIT)
@@ -74,10 +74,7 @@ class ControllerNode(Node):
             self.get_logger().warning("clock jumped back: controller, state pairing and cmd_vel restarted")
         self.sync.reset()
         self.controller.reset()
-        self.velocity_ref = 0.0
-        self.yaw_rate_ref = 0.0
-        self._next_refs: tuple[float, float, float] | None = None  # (stamp, v, omega) not yet in effect
-        self._refs_stamp: float | None = None  # the stamp of the cmd_vel in effect
+        self.command.reset()
         self._last_command: WheelTorques | None = None
         self._stamps: dict[str, Time] = {}
 
@@ -103,7 +100,7 @@ class ControllerNode(Node):
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
         values = (twist.linear.x, twist.angular.z)
         if self._admit("cmd_vel", stamp, values):
-            self._next_refs = (stamp, *values)
+            self.command.offer(stamp, *values)
 
     def _on_cmd_vel(self, msg: Twist) -> None:
         # An unstamped Twist is as old as its arrival: the node's clock, or the newest state it has, when
@@ -130,13 +127,8 @@ class ControllerNode(Node):
         if action is Action.REPEAT and self._last_command is not None:
             self.pub_torque.publish(self._last_command)
         elif action is Action.COMPUTE and state is not None:
-            if self._next_refs is not None and self._next_refs[0] < state.stamp:
-                self._refs_stamp, self.velocity_ref, self.yaw_rate_ref = self._next_refs
-                self._next_refs = None
-            # Judged on the cmd_vel in effect: one received but not yet in effect cannot freshen this state.
-            timeout = self.cfg["cmd_vel_timeout"]
-            stale = self._refs_stamp is None or state.stamp - self._refs_stamp > timeout
-            out = self.controller.compute(state.stamp, self.velocity_ref, self.yaw_rate_ref, state.velocity,
+            velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
+            out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)
             # The newer of the two stamps, exactly as received (a lockstep simulator compares nanoseconds).
             self._publish(out, max(self._stamps.values(), key=stamp_ns))

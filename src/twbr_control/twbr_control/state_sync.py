@@ -76,3 +76,34 @@ class StateSync:
             self._next_due += self.period
         self.last_stamp = stamp
         return Action.COMPUTE, state
+
+
+class VelocityCommand:
+    """cmd_vel as the controller applies it: from the first state stamped after it, stale past the timeout.
+
+    Whether the planner's answer to the state at t reaches the controller just before or just after that
+    state's odom then never changes the command computed for it, so a lockstep run is the same on an idle
+    and on a loaded machine. A cmd_vel received but not yet in effect cannot freshen a state either.
+    """
+
+    def __init__(self, timeout: float) -> None:
+        self.timeout = timeout
+        self.reset()
+
+    def reset(self) -> None:
+        self._next: tuple[float, float, float] | None = None  # (stamp, v, omega) not yet in effect
+        self._stamp: float | None = None  # the stamp of the one in effect
+        self._refs = (0.0, 0.0)
+
+    def offer(self, stamp: float, velocity: float, yaw_rate: float) -> None:
+        """An admitted cmd_vel stamped `stamp` [s] (for a plain Twist: its arrival on the node's clock)."""
+        self._next = (stamp, velocity, yaw_rate)
+
+    def at(self, stamp: float) -> tuple[float, float, bool]:
+        """(v_ref [m/s], omega_ref [rad/s], stale) for the state stamped `stamp` [s]."""
+        if self._next is not None and self._next[0] < stamp:
+            self._stamp, *refs = self._next
+            self._refs = (refs[0], refs[1])
+            self._next = None
+        stale = self._stamp is None or stamp - self._stamp > self.timeout
+        return (*self._refs, stale)
