@@ -144,19 +144,24 @@ def check_overrides(argv: Iterable[str], node_name: str, namespace: str, declare
     declared = set(declared)
     fqn = f"{namespace.rstrip('/')}/{node_name}"
 
-    def known(name: str) -> bool:
-        return name in declared or name.startswith(IMPLICIT_PREFIXES)
+    def check_known(name: str, where: str) -> None:
+        if name in declared or name.startswith(IMPLICIT_PREFIXES):
+            return
+        guess = closest_name(name, declared)
+        hint = f"; did you mean '{guess}'?" if guess else ""
+        raise ConfigError(f"unknown parameter '{name}' {where}: {node_name} declares no such parameter{hint}")
 
     for path in params_file_paths(argv):
         found = list(sections(load_params_file(path), path))
-        applying = [(key, params) for key, params in found if key_matches(key, fqn)]
-        for key, _ in found:
+        applying = []
+        for key, params in found:
             last = key.rsplit("/", 1)[-1]
-            if key_matches(key, fqn) or "*" in last or last in KNOWN_NODES:
-                continue
-            guess = closest_name(last, (*KNOWN_NODES, node_name))
-            if guess is not None:
-                raise ConfigError(f"params file {path}: section '{key}' names no node; did you mean '{guess}'?")
+            if key_matches(key, fqn):
+                applying.append((key, params))
+            elif "*" not in last and last not in KNOWN_NODES:
+                guess = closest_name(last, (*KNOWN_NODES, node_name))
+                if guess is not None:
+                    raise ConfigError(f"params file {path}: section '{key}' names no node; did you mean '{guess}'?")
         if not applying:
             keys = ", ".join(f"'{k}'" for k, _ in found)
             raise ConfigError(
@@ -165,16 +170,7 @@ def check_overrides(argv: Iterable[str], node_name: str, namespace: str, declare
             )
         for key, params in applying:
             for name in flatten(params):
-                if not known(name):
-                    guess = closest_name(name, declared)
-                    hint = f"; did you mean '{guess}'?" if guess else ""
-                    raise ConfigError(f"unknown parameter '{name}' in params file {path} (section '{key}'):"
-                                      f" {node_name} declares no such parameter{hint}")
+                check_known(name, f"in params file {path} (section '{key}')")
     for node, name in parameter_overrides(argv):
-        if node is not None and node != node_name:
-            continue
-        if not known(name):
-            guess = closest_name(name, declared)
-            hint = f"; did you mean '{guess}'?" if guess else ""
-            raise ConfigError(f"unknown parameter '{name}' (-p {name}:=...): {node_name} declares no such"
-                              f" parameter{hint}")
+        if node is None or node == node_name:
+            check_known(name, f"(-p {name}:=...)")
