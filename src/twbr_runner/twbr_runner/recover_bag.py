@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections import Counter
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 
 from mcap.exceptions import McapError
-from mcap.records import Channel, Chunk, Message, Schema
+from mcap.records import Channel, Chunk, McapRecord, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -28,42 +27,24 @@ EXIT_FAILED = 1
 _SEPARATOR = "=" * 80
 
 
-@dataclass
-class Salvage:
-    """What a cut MCAP file still holds: its schemas and channels, and its messages in file order."""
-
-    schemas: dict[int, Schema] = field(default_factory=dict)
-    channels: dict[int, Channel] = field(default_factory=dict)
-    messages: list[Message] = field(default_factory=list)
-    cut: str = ""  # why reading stopped before the end, if it did
-
-
-def salvage(path: Path) -> Salvage:
-    out = Salvage()
-
-    def take(record) -> None:
-        if isinstance(record, Schema):
-            out.schemas[record.id] = record
-        elif isinstance(record, Channel):
-            out.channels[record.id] = record
-        elif isinstance(record, Message) and record.channel_id in out.channels:
-            out.messages.append(record)
-
+def salvage(path: Path, take: Callable[[McapRecord], None]) -> str:
+    """Hand every whole record of an MCAP file to `take`, in file order, up to the cut; returns why reading
+    stopped before the end ("" when it did not)."""
     with Path(path).open("rb") as f:
         try:
             for record in StreamReader(f, emit_chunks=True).records:
-                if isinstance(record, Chunk):
-                    try:
-                        for inner in breakup_chunk(record, validate_crc=True):
-                            take(inner)
-                    except (McapError, ValueError, EOFError) as e:  # a chunk cut mid-write
-                        out.cut = f"a damaged chunk ({e})"
-                        break
-                else:
+                if not isinstance(record, Chunk):
                     take(record)
+                    continue
+                try:
+                    inner = breakup_chunk(record, validate_crc=True)
+                except (McapError, ValueError, EOFError) as e:  # a chunk cut mid-write
+                    return f"a damaged chunk ({e})"
+                for item in inner:
+                    take(item)
         except (McapError, ValueError, EOFError, OSError) as e:
-            out.cut = f"the file ends mid-record ({type(e).__name__})"
-    return out
+            return f"the file ends mid-record ({type(e).__name__})"
+    return ""
 
 
 def definitions(schema: Schema) -> dict:
@@ -83,7 +64,7 @@ def definitions(schema: Schema) -> dict:
     return types
 
 
-def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, Counter, str]:
+def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, dict[str, int], str]:
     """Rewrite the bag in `bag_dir` (or into `output`); returns (bag directory, messages by topic, cut)."""
     bag_dir = Path(bag_dir)
     files = sorted(bag_dir.glob("*.mcap"))
@@ -91,24 +72,31 @@ def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, Counter, s
         raise FileNotFoundError(f"{bag_dir}: no .mcap file to recover")
     if output is None and (bag_dir / "metadata.yaml").exists():
         raise FileExistsError(f"{bag_dir}: has a metadata.yaml already (a closed bag); pass -o to rewrite it")
-    found = [salvage(f) for f in files]
-    store = get_typestore(Stores.ROS2_JAZZY)
-    for part in found:
-        for schema in part.schemas.values():
-            if schema.encoding == "ros2msg" and schema.name not in store.types:
-                store.register({k: v for k, v in definitions(schema).items() if k not in store.types})
     target = output or bag_dir.with_name(bag_dir.name + ".recovering")
+    store = get_typestore(Stores.ROS2_JAZZY)
     writer = BagWriter(target, store)
-    counts: Counter = Counter()
-    for part in found:
-        for message in part.messages:
-            channel = part.channels[message.channel_id]
-            schema = part.schemas.get(channel.schema_id)
-            if schema is None:
-                continue
-            writer.add_topic(channel.topic, schema.name, qos_profile())
-            writer.write(channel.topic, message.log_time, message.data)
-            counts[channel.topic] += 1
+    cuts = []
+    for path in files:
+        # Written as read: a cut bag can be far larger than memory. MCAP puts each schema and channel before
+        # the first message that uses it; ids are per file.
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+
+        def take(record: McapRecord, schemas=schemas, channels=channels) -> None:
+            if isinstance(record, Schema):
+                schemas[record.id] = record
+                if record.encoding == "ros2msg" and record.name not in store.types:
+                    store.register({k: v for k, v in definitions(record).items() if k not in store.types})
+            elif isinstance(record, Channel):
+                channels[record.id] = record
+            elif isinstance(record, Message) and record.channel_id in channels:
+                channel = channels[record.channel_id]
+                schema = schemas.get(channel.schema_id)
+                if schema is not None:
+                    writer.add_topic(channel.topic, schema.name, qos_profile())
+                    writer.write(channel.topic, record.log_time, record.data)
+
+        cuts.append(salvage(path, take))
     writer.close()
     if output is None:  # in place: the cut files are kept beside the recovered bag, renamed
         for f in files:
@@ -117,7 +105,7 @@ def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, Counter, s
             f.rename(bag_dir / f.name)
         target.rmdir()
         target = bag_dir
-    return target, counts, "; ".join(p.cut for p in found if p.cut)
+    return target, writer.counts, "; ".join(cut for cut in cuts if cut)
 
 
 def main(argv: list[str] | None = None) -> int:
