@@ -40,7 +40,7 @@ def test_pinning_moves_every_thread_including_those_started_before():
     # In a child process: pinning the test process would slow the rest of the suite.
     code = (
         "import os, threading, time\n"
-        "from twbr_common.process import process_specs, pin_process\n"
+        "from twbr_common.process import pin_process\n"
         "stop = threading.Event()\n"
         "t = threading.Thread(target=stop.wait); t.start()\n"
         f"pin_process({{{CPUS[-1]}}})\n"

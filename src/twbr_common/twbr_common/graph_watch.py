@@ -24,7 +24,6 @@ class GraphWatch:
         self.node = node
         self.owned = [node.resolve_topic_name(t) for t in owned]
         self._reported: set[str] = set()
-        self.findings: list[str] = []
         # Wall time: a node on sim time has no clock while nothing publishes /clock, and is watched all the same.
         node.create_timer(period, self.check, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
@@ -46,7 +45,6 @@ class GraphWatch:
             if line not in self._reported:
                 self.node.get_logger().error(line)
         self._reported = set(found)
-        self.findings = found
         return found
 
     def _find(self) -> list[str]:

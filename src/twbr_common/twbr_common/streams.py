@@ -31,13 +31,12 @@ class InputStreams:
     def on_restart(self, hook: Callable[[], None]) -> None:
         self._hooks.append(hook)
 
-    def observe(self, now: float) -> bool:
-        """Note the node's clock; True (after restarting everything) when it went back."""
+    def observe(self, now: float) -> None:
+        """Note the node's clock, and restart everything when it went back."""
         jumped = self._latest is not None and now < self._latest
         self._latest = now
         if jumped:
             self.restart()
-        return jumped
 
     def restart(self) -> None:
         self.restarts += 1
@@ -53,7 +52,3 @@ class InputStreams:
 
     def dropped(self, stream: str, reason: str, detail: str = "") -> None:
         self.drops.dropped(stream, reason, detail)
-
-    @property
-    def rejected_total(self) -> int:
-        return sum(g.rejected_total for g in self.guards.values())
