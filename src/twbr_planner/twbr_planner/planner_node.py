@@ -51,6 +51,10 @@ class PlannerNode(Node):
         self.inputs.add("obstacles", self.cfg["world_timeout"], limit=POSITION_LIMIT)
         self._due = Decimator(self.cfg["rate"])
         self._marker_due = Decimator(self.cfg["marker_rate"])
+        # Armed only while a plan waits for its world, on wall time: a lockstep simulator waiting for this plan
+        # sends no /clock meanwhile.
+        self._overdue = self.create_timer(max(self.cfg["world_wait"], 1e-3), self._plan_overdue,
+                                          clock=Clock(clock_type=ClockType.STEADY_TIME), autostart=False)
         self.inputs.on_restart(self._restart)
         self._restart()
         self.stamped = self.cfg["enable_stamped_cmd_vel"]
@@ -64,8 +68,6 @@ class PlannerNode(Node):
         self.create_subscription(Odometry, "target", self._on_target, WORLD_QOS)
         self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
-        # On wall time: a lockstep simulator waiting for this plan sends no /clock meanwhile.
-        self.create_timer(0.02, self._plan_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.graph = GraphWatch(self, ["cmd_vel", "planner_state"])
         self.parameter_revision = 0
         accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
@@ -94,6 +96,7 @@ class PlannerNode(Node):
         self._last_plan: tuple[float, PlannerOutput] | None = None
         # (odom message, its stamp, x, y, yaw, speed, wall deadline): a plan due, waiting for its world.
         self._pending: tuple | None = None
+        self._overdue.cancel()
 
     def _on_target(self, msg: Odometry) -> None:
         o = msg.pose.pose.orientation
@@ -130,6 +133,7 @@ class PlannerNode(Node):
             if self._pending is not None:
                 self._plan_pending(force=True)  # the next instant is due: the last one plans with what it has
             self._pending = (msg, stamp, p.x, p.y, yaw, speed, time.monotonic() + self.cfg["world_wait"])
+            self._overdue.reset()
             self._plan_pending()
 
     def _retune(self, cfg: dict) -> None:
@@ -149,10 +153,12 @@ class PlannerNode(Node):
         if not (force or self._world_current(stamp) or time.monotonic() >= deadline):
             return
         self._pending = None
+        self._overdue.cancel()
         self._plan(odom, stamp, x, y, yaw, speed)
 
     def _plan_overdue(self) -> None:
-        if self._pending is not None and time.monotonic() >= self._pending[-1]:
+        self._overdue.cancel()  # one shot: armed again by the next plan that waits
+        if self._pending is not None:
             self.get_logger().warning(
                 f"no target/obstacles of t = {self._pending[1]:.3f} s within world_wait ="
                 f" {self.cfg['world_wait']:g} s: planning with the last ones", throttle_duration_sec=2.0)
