@@ -59,10 +59,18 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
         [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
          "--no-figures"], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # The hostile neighbour joins once the graph runs (the runner refuses to start beside one).
-    while time.monotonic() - started < 60 and not list((tmp_path / "runs").glob("*/logs/sim.err")):
-        time.sleep(0.05)
-    garbage = injector(ros_env, tmp_path, "use_sim_time:=true")
-    out, err = runner.communicate(timeout=300)
+    garbage = None
+    try:
+        while time.monotonic() - started < 60 and not list((tmp_path / "runs").glob("*/logs/sim.err")):
+            time.sleep(0.05)
+        garbage = injector(ros_env, tmp_path, "use_sim_time:=true")
+        out, err = runner.communicate(timeout=300)
+    finally:
+        if runner.poll() is None:  # the run hung: stop it (its nodes go with it) and the injector
+            runner.kill()
+            runner.wait()
+            if garbage is not None:
+                garbage.stop()
     wall = time.monotonic() - started
     sent = injected_counts(garbage)
     assert runner.returncode == 0, out + err

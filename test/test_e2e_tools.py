@@ -38,14 +38,16 @@ def test_a_runner_killed_with_sigkill_leaves_no_node_behind_and_a_closed_bag(tmp
     runner = subprocess.Popen([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path),
                                "--quiet", "--no-figures"], env=ros_env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not list(tmp_path.glob("*/logs/sim.err")):
-        time.sleep(0.1)
-    time.sleep(2.0)  # driving
-    nodes = _children(runner.pid)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not list(tmp_path.glob("*/logs/sim.err")):
+            time.sleep(0.1)
+        time.sleep(2.0)  # driving
+        nodes = _children(runner.pid)
+    finally:
+        runner.kill()  # also when the wait above fails: its nodes go with it
+        runner.wait()
     assert len(nodes) == 4, nodes  # recorder, controller, planner, simulator
-    runner.kill()
-    runner.wait()
     deadline = time.monotonic() + 15
     while time.monotonic() < deadline and any(_alive(p) for p in nodes):
         time.sleep(0.1)
