@@ -47,7 +47,7 @@ skip=()
 if [ "$underlay" = system ] && [ -d "/opt/ros/jazzy/share/tf2_msgs" ]; then
   skip=(--packages-skip tf2_msgs)   # the platform has tf2_msgs: never shadow it
 fi
-colcon build --symlink-install --base-paths src "${skip[@]}" \
+colcon build --symlink-install --base-paths src config "${skip[@]}" \
   --event-handlers console_cohesion- summary+ status- > log/twbr-build.txt 2>&1 \
   || { cat log/twbr-build.txt; echo "bootstrap: colcon build failed" >&2; exit 1; }
 tail -n 3 log/twbr-build.txt

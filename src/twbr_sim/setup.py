@@ -1,19 +1,6 @@
-import os
-from glob import glob
-from pathlib import Path
-
 from setuptools import find_packages, setup
 
 package_name = "twbr_sim"
-# The workspace's config/ (parameter files and scenarios) installs into this package's share directory,
-# so `ros2 run` users find it with `ros2 pkg prefix twbr_sim`.
-here = Path(__file__).resolve().parent
-config = here.parent.parent / "config"
-
-
-def relative(pattern: str) -> list[str]:
-    return sorted(os.path.relpath(p, here) for p in glob(str(config / pattern)))
-
 
 setup(
     name=package_name,
@@ -22,8 +9,6 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
-        ("share/" + package_name + "/config", relative("*.yaml") + relative("*.xml")),
-        ("share/" + package_name + "/config/scenarios", relative("scenarios/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=False,

@@ -2,14 +2,34 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
 
+def installed_config_dir() -> Path | None:
+    """share/twbr_config/config of the sourced workspace, or None where twbr_config is not installed."""
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+    except ImportError:
+        return None
+    with contextlib.suppress(PackageNotFoundError):
+        return Path(get_package_share_directory("twbr_config")) / "config"
+    return None
+
+
 def config_dir() -> Path:
-    """$TWBR_CONFIG_DIR (a checkout's config/), else the installed share/twbr_sim/config."""
+    """$TWBR_CONFIG_DIR (a checkout's config/), else the installed share/twbr_config/config."""
     if os.environ.get("TWBR_CONFIG_DIR"):
         return Path(os.environ["TWBR_CONFIG_DIR"])
-    from ament_index_python.packages import get_package_share_directory
+    installed = installed_config_dir()
+    if installed is None:
+        raise FileNotFoundError("twbr_config is not installed and TWBR_CONFIG_DIR is not set")
+    return installed
 
-    return Path(get_package_share_directory("twbr_sim")) / "config"
+
+def config_dirs() -> list[Path]:
+    """Every place parameter files and scenarios are looked for, in order: $TWBR_CONFIG_DIR, then installed."""
+    dirs = [Path(os.environ["TWBR_CONFIG_DIR"])] if os.environ.get("TWBR_CONFIG_DIR") else []
+    installed = installed_config_dir()
+    return dirs + ([installed] if installed is not None else [])

@@ -19,7 +19,7 @@ from twbr_sim.scenario_files import find_scenario
 
 PLAYER_SPECS = (
     ParamSpec("scenario", "step", "scenario file whose `commands` are played: a path, or a name in"
-              " share/twbr_sim/config/scenarios"),
+              " share/twbr_config/config/scenarios"),
     ParamSpec("rate", 20.0, "cmd_vel is re-published at least this often while the profile holds", "Hz",
               1.0, 1000.0),
     ParamSpec("enable_stamped_cmd_vel", False, "publish geometry_msgs/TwistStamped instead of Twist"),

@@ -2,26 +2,16 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 from pathlib import Path
 
 from twbr_common.params import ConfigError
+from twbr_common.paths import config_dirs
 
 
 def scenario_dirs() -> list[Path]:
     """$TWBR_CONFIG_DIR/scenarios first (a checkout's config/), then the installed share directory."""
-    dirs = []
-    if os.environ.get("TWBR_CONFIG_DIR"):
-        dirs.append(Path(os.environ["TWBR_CONFIG_DIR"]) / "scenarios")
-    try:
-        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-
-        with contextlib.suppress(PackageNotFoundError):
-            dirs.append(Path(get_package_share_directory("twbr_sim")) / "config" / "scenarios")
-    except ImportError:
-        pass
-    return dirs
+    return [d / "scenarios" for d in config_dirs()]
 
 
 def scenario_names() -> list[str]:

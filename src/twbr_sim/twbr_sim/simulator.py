@@ -42,7 +42,7 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
               0.001, 10.0),
     ParamSpec("duration", 0.0, "sim time after which the node stops by itself; 0 runs until stopped", "s",
               0.0, 1e7),
-    ParamSpec("scenario", "", "scenario file: a path, or a name in share/twbr_sim/config/scenarios;"
+    ParamSpec("scenario", "", "scenario file: a path, or a name in share/twbr_config/config/scenarios;"
               " empty: the robot alone at the origin"),
     ParamSpec("host_world", True, "publish the scenario's target and obstacles (false when world_node runs)"),
     ParamSpec("seed", -1, "seed of the target's turns and the IMU noise; -1 takes the scenario's", "", -1,

@@ -24,7 +24,7 @@ from twbr_sim.world import World
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WORLD_SPECS: tuple[ParamSpec, ...] = (
-    ParamSpec("scenario", "dynamic_obstacles", "scenario file: a path, or a name in share/twbr_sim/config/scenarios"),
+    ParamSpec("scenario", "dynamic_obstacles", "scenario file: a path, or a name in share/twbr_config/config/scenarios"),
     ParamSpec("seed", -1, "seed of the target's turns; -1 takes the scenario's", "", -1, 2**31 - 1),
     ParamSpec("rate", 20.0, "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
     ParamSpec("marker_rate", 5.0, "rate of the RViz world markers", "Hz", 0.1, 100.0),
