@@ -27,7 +27,7 @@ demo: setup
 	@$(RUN) python -m twbr_runner.runner $(SCENARIO)
 
 montecarlo: setup
-	@$(RUN) python -m twbr_runner.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
+	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
 
 BENCH_OUT ?= benchmarks/results
 bench: setup

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from twbr_runner import montecarlo as mc
-from twbr_runner.batch import run_batch
-from twbr_runner.closed_loop import planner_reference, run_closed_loop
+from twbr_batch import montecarlo as mc
+from twbr_batch.batch import run_batch
+from twbr_batch.closed_loop import planner_reference, run_closed_loop
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario

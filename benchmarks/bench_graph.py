@@ -31,8 +31,8 @@ from pathlib import Path
 
 import psutil
 
-from twbr_common.processes import loopback_env, start_node
 from twbr_runner.runner import params_files
+from twbr_runner.spawn import loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -16,7 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from twbr_common.processes import loopback_env, start_node
+from twbr_runner.spawn import loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from twbr_common.processes import NodeProcess, loopback_env, start_node
+from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config"

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from twbr_common.processes import NodeProcess, node_executable
 from twbr_msgs.msg import WorldStatus
+from twbr_runner.spawn import NodeProcess, node_executable
 
 pytestmark = pytest.mark.e2e
 FAKE_DRIVER = Path(__file__).with_name("fake_driver.py")

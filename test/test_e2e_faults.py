@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from twbr_common.processes import NodeProcess
 from twbr_msgs.msg import ControllerState, PlannerState, SimStatus, WorldStatus
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.metrics import series_from_messages
+from twbr_runner.spawn import NodeProcess
 from twbr_sim.scenario import load_scenario
 
 pytestmark = pytest.mark.e2e
@@ -34,7 +34,7 @@ SIM_PARAMS = ("robot.yaml", "sim.yaml")
 
 def course_on_the_cores() -> tuple[dict, Any]:
     """The course run headless by the same cores, without DDS: what an undisturbed run gives, and its path."""
-    from twbr_runner.montecarlo import run_one_traced
+    from twbr_batch.montecarlo import run_one_traced
 
     return run_one_traced(str(COURSE), load_scenario(COURSE).seed, perturbation=0.0)
 

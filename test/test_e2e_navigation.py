@@ -80,7 +80,7 @@ def test_other_seeds_reach_the_target_without_collision_or_fall(tmp_path, ros_do
 
 
 def test_static_outcome_does_not_depend_on_the_seed():
-    from twbr_runner.closed_loop import planner_reference, run_closed_loop
+    from twbr_batch.closed_loop import planner_reference, run_closed_loop
 
     scenario = load_scenario(find_scenario("static"))
     paths = []

@@ -10,7 +10,7 @@ import pytest
 import yaml
 from geometry_msgs.msg import Twist
 
-from twbr_common.processes import NodeProcess, node_executable
+from twbr_runner.spawn import NodeProcess, node_executable
 
 pytestmark = pytest.mark.e2e
 HERE = Path(__file__).parent

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from twbr_common.processes import NodeProcess, node_executable
 from twbr_runner.bag_reader import BagError, bag_info, read_messages
+from twbr_runner.spawn import NodeProcess, node_executable
 
 pytestmark = pytest.mark.e2e
 HERE = Path(__file__).parent

@@ -41,7 +41,7 @@ fi
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( ($$ % 100) + 101 ))}"
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
-# UDP on loopback, not shared memory: see LOOPBACK_TRANSPORT in twbr_common/processes.py.
+# UDP on loopback, not shared memory: see LOOPBACK_TRANSPORT in twbr_runner/spawn.py.
 export FASTDDS_BUILTIN_TRANSPORTS="${FASTDDS_BUILTIN_TRANSPORTS:-UDPv4}"
 # Announce participants every 0.5 s (config/fastdds.xml): the processes of a graph find each other at once.
 if [ -f "$TWBR_ROOT/config/fastdds.xml" ]; then

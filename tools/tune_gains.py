@@ -12,10 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from twbr_common.param_files import node_parameters
-from twbr_common.params import defaults, validate_all
-from twbr_control.controller_params import CONTROL_SPECS
-from twbr_runner.tuning import (
+from twbr_batch.tuning import (
     BALANCE_GAINS,
     YAW_GAINS,
     check_step,
@@ -24,6 +21,9 @@ from twbr_runner.tuning import (
     velocity_step,
     yaw_rate_step,
 )
+from twbr_common.param_files import node_parameters
+from twbr_common.params import defaults, validate_all
+from twbr_control.controller_params import CONTROL_SPECS
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -14,14 +14,13 @@ setup(
     zip_safe=False,
     maintainer="twbr maintainers",
     maintainer_email="maintainers@twbr.dev",
-    description="Scenario runner, rosbag2 (MCAP) recorder, metrics and figures from bags, headless closed loop and gain tuning.",
+    description="What runs and records a node graph: runner, rosbag2 (MCAP) recorder, metrics, figures, driver check.",
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
             "recorder = twbr_runner.recorder:main",
             "run_scenario = twbr_runner.runner:main",
             "check_driver = twbr_runner.check_driver:main",
-            "montecarlo = twbr_runner.montecarlo:main",
             "recover_bag = twbr_runner.recover_bag:main",
         ],
     },

@@ -26,9 +26,9 @@ from rclpy.node import Node
 
 from twbr_common.executor import spin_until_shutdown
 from twbr_common.guard import INPUT_SPECS, future_tolerance
+from twbr_common.node_process import process_specs, settle_process
 from twbr_common.param_files import check_overrides, preflight
 from twbr_common.params import ConfigError, ParamSpec
-from twbr_common.process import process_specs, settle_process
 from twbr_common.streams import InputStreams
 
 EXIT_CONFIG_ERROR = 2
@@ -91,7 +91,7 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     """Init, spin until shutdown, and turn a configuration error into one FATAL line and exit code 2.
 
     A node with a `run()` method drives its own loop (the lockstep simulator); others are spun. Every
-    node also takes the process parameters of twbr_common.process (cpu_affinity).
+    node also takes the process parameters of twbr_common.node_process (cpu_affinity).
     """
     argv = argv if argv is not None else sys.argv
     try:

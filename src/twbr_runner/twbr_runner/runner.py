@@ -31,10 +31,10 @@ from typing import Any
 from twbr_common.param_files import KNOWN_NODES, node_parameters
 from twbr_common.params import ConfigError
 from twbr_common.paths import config_dir
-from twbr_common.processes import NodeProcess, loopback_env, start_node
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
+from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario

@@ -7,11 +7,11 @@ test/test_e2e_runner.py checks the same figures through the real nodes and the r
 import numpy as np
 import pytest
 
+from twbr_batch.response import settle_time, step_response
+from twbr_batch.tuning import check_step, lqr_balance_gains, velocity_step, yaw_rate_step
 from twbr_common.param_files import node_parameters
 from twbr_common.params import defaults
 from twbr_control.controller_params import CONTROL_SPECS
-from twbr_runner.response import settle_time, step_response
-from twbr_runner.tuning import check_step, lqr_balance_gains, velocity_step, yaw_rate_step
 
 GAINS = defaults(CONTROL_SPECS)  # the shipped gains (== config/controller.yaml, checked below)
 TORQUE_LIMIT = 15.0
@@ -45,7 +45,7 @@ def test_yaw_rate_step_is_tracked_within_1_5_s_without_losing_balance():
 
 
 def test_combined_turn_and_drive_and_a_large_step_stay_balanced():
-    from twbr_runner.closed_loop import run_closed_loop
+    from twbr_batch.closed_loop import run_closed_loop
 
     trace = run_closed_loop(6.0, lambda t, _s: (0.8, 1.0) if t >= 0.5 else (0.0, 0.0), GAINS)
     assert not trace.fallen

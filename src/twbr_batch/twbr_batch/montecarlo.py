@@ -1,7 +1,7 @@
 """montecarlo: one scenario over many seeds, headless on the cores, optionally with perturbed robots.
 
-    python -m twbr_runner.montecarlo dynamic_obstacles -n 1000 --perturb 0.2   # or: make montecarlo N=1000
-    python -m twbr_runner.montecarlo dynamic_obstacles -n 1000 --scheduler tcp://10.0.0.5:8786   # Dask
+    python -m twbr_batch.montecarlo dynamic_obstacles -n 1000 --perturb 0.2   # or: make montecarlo N=1000
+    python -m twbr_batch.montecarlo dynamic_obstacles -n 1000 --scheduler tcp://10.0.0.5:8786   # Dask
 
 Each run is the simulator, controller and planner (or the scenario's command profile) in closed loop,
 ended like the node graph ends it: on the target reached (end_on_target), a fall, or the scenario's
@@ -9,8 +9,8 @@ duration. The world is assessed at the world rate, as sim_node does. With --pert
 from its seed, a factor in [1 - p, 1 + p] for each of the body and wheel masses, the inertias and the
 motor constant.
 
-Engines: `batch` (default) runs the seeds in chunks through the batch engine (twbr_runner.batch), whose
-threads use every core; `scalar` runs each seed through the scalar cores (twbr_runner.closed_loop), one
+Engines: `batch` (default) runs the seeds in chunks through the batch engine (twbr_batch.batch), whose
+threads use every core; `scalar` runs each seed through the scalar cores (twbr_batch.closed_loop), one
 process per core, as a cross-check. With --scheduler the batch chunks run on a Dask distributed cluster
 (every worker needs twbr installed, as here). Each finished row is written to the CSV at once, so an
 interrupted study keeps them. Writes <out>/<scenario>-<time>/runs.csv, summary.json and summary.png.
@@ -35,8 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.params import ConfigError, defaults
-from twbr_runner.batch import (
+from twbr_batch.batch import (
     PLANNER_RATE,
     WORLD_RATE,
     Z_COLLISIONS,
@@ -49,6 +48,7 @@ from twbr_runner.batch import (
     Z_STUCK_STEPS,
     run_batch,
 )
+from twbr_common.params import ConfigError, defaults
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
@@ -132,8 +132,8 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any
 
 def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[dict[str, Any], Any]:
     """run_one, and the run's closed_loop.Trace."""
+    from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode
-    from twbr_runner.closed_loop import planner_reference, run_closed_loop, scenario_reference
 
     scenario = load_scenario(Path(scenario_path))
     factors = perturbation_factors(seed, perturbation)

@@ -6,8 +6,8 @@ import json
 
 import pytest
 
+from twbr_batch import montecarlo as mc
 from twbr_common.params import ConfigError
-from twbr_runner import montecarlo as mc
 
 COURSE = """name: mc_course
 duration: 60.0
@@ -146,7 +146,7 @@ def test_sigterm_ends_a_study_as_the_runner_does_exit_143_rows_kept(course, tmp_
     import sys
     import time
 
-    proc = subprocess.Popen([sys.executable, "-m", "twbr_runner.montecarlo", str(course), "-n", "4000", "--chunk",
+    proc = subprocess.Popen([sys.executable, "-m", "twbr_batch.montecarlo", str(course), "-n", "4000", "--chunk",
                              "40", "--out", str(tmp_path / "out"), "--no-figure"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120

@@ -19,9 +19,9 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from twbr_batch.closed_loop import Trace, run_closed_loop
+from twbr_batch.response import StepResponse, settle_time, step_response
 from twbr_common.params import defaults
-from twbr_runner.closed_loop import Trace, run_closed_loop
-from twbr_runner.response import StepResponse, settle_time, step_response
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 

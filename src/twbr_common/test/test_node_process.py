@@ -11,8 +11,8 @@ import sys
 import pytest
 import rclpy
 
+from twbr_common.node_process import PROCESS_SPECS, check_cpus, process_specs, settle_process
 from twbr_common.params import ConfigError
-from twbr_common.process import PROCESS_SPECS, check_cpus, process_specs, settle_process
 from twbr_common.ros_params import declare
 
 CPUS = sorted(os.sched_getaffinity(0))
@@ -40,7 +40,7 @@ def test_pinning_moves_every_thread_including_those_started_before():
     # In a child process: pinning the test process would slow the rest of the suite.
     code = (
         "import os, threading, time\n"
-        "from twbr_common.process import pin_process\n"
+        "from twbr_common.node_process import pin_process\n"
         "stop = threading.Event()\n"
         "t = threading.Thread(target=stop.wait); t.start()\n"
         f"pin_process({{{CPUS[-1]}}})\n"

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from twbr_batch import batch
+from twbr_batch import montecarlo as mc
 from twbr_common.params import ConfigError
-from twbr_runner import batch
-from twbr_runner import montecarlo as mc
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario, scenario_names
