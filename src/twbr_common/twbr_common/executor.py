@@ -1,9 +1,8 @@
 """The executor every node spins: rclpy's EventsExecutor where this rclpy has it.
 
 SingleThreadedExecutor rebuilds its wait set in Python on every wake-up. The EventsExecutor (rclpy
-7.1.5+, `rclpy.experimental`) dispatches each message from C++ as it arrives. On 2 cores, realtime
-sim_node + controller_node (benchmarks/bench_graph.py), the state -> command round trip fell from a
-median of 2.1 ms (p99 4.2 ms) to 0.9 ms (p99 1.8 ms).
+7.1.5+, `rclpy.experimental`) dispatches each message from C++ as it arrives, which more than halves the
+state -> command round trip (benchmarks/README.md has the figures).
 
 Callbacks run in the order their messages arrived, not in the order their subscriptions were created.
 TWBR_EXECUTOR=single selects SingleThreadedExecutor, for an rclpy without the EventsExecutor or to rule

@@ -5,9 +5,9 @@ cpu_affinity pins the whole process (the Python thread and every DDS thread) to 
 computer, the control loop's processes can then keep CPUs of their own, away from a recorder or a
 planner. A parameter rather than a wrapper, so that it travels in the node's parameter file.
 
-The heap is frozen after start-up (gc.freeze): the ~130,000 objects of imports and compiled kernels are
-never scanned again, so a full collection in the loop walks only what the loop made. Unfrozen, one
-full collection stalled sim_node for 63 ms in the middle of a 20 s realtime run (gc.callbacks).
+The heap is frozen after start-up (gc.freeze): the objects of imports and compiled kernels are never
+scanned again, so a full collection in the loop walks only what the loop made, instead of stalling a
+realtime loop for tens of milliseconds (benchmarks/README.md).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Parameter specifications: one table per node, shared by the ROS adapter and the headless cores.
 
 Each parameter is declared once, with its default, unit, valid range and description, so the node's
-descriptors, the start-up validation, the headless batch runs and the README all say the same thing.
+descriptors, the start-up validation, the headless batch runs and docs/parameters.md all say the same thing.
 A bad value raises ConfigError with one message naming the parameter and its valid range.
 """
 
@@ -131,7 +131,7 @@ def defaults(specs: Iterable[ParamSpec]) -> dict[str, Any]:
 
 
 def markdown_table(specs: Iterable[ParamSpec]) -> str:
-    """The parameter table the README shows, generated from the same specs."""
+    """A parameter table of docs/parameters.md, generated from the same specs."""
     rows = ["| parameter | default | unit | valid | meaning |", "|---|---|---|---|---|"]
     for s in specs:
         default = str(s.default).lower() if isinstance(s.default, bool) else s.default

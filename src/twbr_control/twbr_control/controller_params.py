@@ -1,4 +1,4 @@
-"""The controller's parameters: one table for the node, the headless closed loop, the tuner and the README.
+"""The controller's parameters: one table for the node, the headless closed loop, the tuner and docs/parameters.md.
 
 The gain defaults are the ones config/controller.yaml carries (tools/tune_gains.py, see there).
 """

@@ -1,4 +1,4 @@
-"""The planner's parameters: one table for the node, the headless runs and the README."""
+"""The planner's parameters: one table for the node, the headless runs and docs/parameters.md."""
 
 from __future__ import annotations
 

@@ -155,9 +155,8 @@ class SimNode(Node):
         """Fill the messages of the current state: the clock and the world when due, odom and imu.
 
         Apart from sending, so that realtime can fill them in the slack of the period before and send them
-        at the tick: filling is Python that runs 3-8 times slower on a CPU that just woke up (0.3 ms for
-        odom and imu, 0.4 ms more for the world on the 2-core machine), and it would sit in the control
-        loop's latency.
+        at the tick: filling is Python, several times slower on a CPU that just woke up, and it would sit in
+        the control loop's latency (benchmarks/README.md).
         """
         sim = self.sim
         now_ns = sim.step_count * self._step_ns
