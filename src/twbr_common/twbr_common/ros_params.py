@@ -77,14 +77,25 @@ def declare(node: Node, specs: Iterable[ParamSpec], prefix: str = "") -> dict[st
         try:
             param = node.declare_parameter(name, default, descriptor(shown))
         except (InvalidParameterTypeException, InvalidParameterValueException, ParameterException) as e:
-            override = node._parameter_overrides.get(name)
-            value = override.value if override is not None else "?"
+            value = given_value(node, name)
             raise ConfigError(
                 f"invalid parameter '{name}' = {value!r}: must be {shown.range_text()}"
                 f" ({type(e).__name__})"
             ) from None
         values[spec.name] = shown.validate(spec.default if param.value is None else param.value)
     return values
+
+
+def given_value(node: Node, name: str) -> Any:
+    """The value a params file or `-p` gave a parameter whose declaration refused it (for the error line).
+
+    Declared again with dynamic typing and no range, the override is taken as it is and read back
+    through the public API.
+    """
+    try:
+        return node.declare_parameter(name, None, ParameterDescriptor(dynamic_typing=True)).value
+    except (ParameterException, InvalidParameterTypeException, InvalidParameterValueException):
+        return "?"
 
 
 def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = None) -> int:

@@ -32,13 +32,14 @@ class StateSync:
     def __init__(self, rate: float, tolerance: float) -> None:
         self.period = 1.0 / rate
         self.tolerance = tolerance
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every sample and the schedule (a restarted clock): the next complete state computes."""
         self._odom: tuple[float, float, float] | None = None
         self._imu: tuple[float, float, float] | None = None
         self.last_stamp: float | None = None
         self._next_due: float | None = None
-
-    def reset(self) -> None:
-        self.__init__(1.0 / self.period, self.tolerance)
 
     @property
     def newest_stamp(self) -> float:

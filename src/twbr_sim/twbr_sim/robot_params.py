@@ -97,11 +97,6 @@ def check_consistent(p: np.ndarray) -> None:
         )
 
 
-def params_dict(p: np.ndarray) -> dict[str, float]:
-    """The P_* entries by name."""
-    return {name: float(p[i]) for i, name in enumerate(ROBOT_PARAM_NAMES)}
-
-
 @kernel
 def wheel_torque_limit(p: np.ndarray) -> float:
     """Largest wheel torque the driver can command: N k I_max [N*m] (compiled: the batch engine calls it)."""
