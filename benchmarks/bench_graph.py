@@ -31,6 +31,8 @@ from pathlib import Path
 
 import psutil
 
+from twbr_common.params import default_of
+from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_runner.runner import params_files
 from twbr_runner.spawn import loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
@@ -75,7 +77,7 @@ def run_graph(mode: str, partner: str, pinning: dict[str, int] | None, sim_secon
     if partner == "navigation":
         sim_args += ["-p", "scenario:=dynamic_obstacles"]
         if mode == "lockstep":
-            sim_args += ["-p", "lockstep_planner_rate:=20.0"]
+            sim_args += ["-p", f"lockstep_planner_rate:={default_of(PLANNER_NODE_SPECS, 'rate')}"]
     procs["sim"] = sim = start_node("twbr_sim", "sim_node", sim_args, env, log_dir, f"sim-{mode}-{domain}")
     rss = dict.fromkeys(procs, 0)
     try:

@@ -23,7 +23,9 @@ import numba
 import numpy as np
 
 from twbr_common.jit import kernel, parallel_kernel
-from twbr_common.params import ConfigError, defaults, validate_all
+from twbr_common.layout import Layout
+from twbr_common.params import ConfigError, default_of, defaults, validate_all
+from twbr_common.timing import is_due, next_due
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
@@ -35,11 +37,12 @@ from twbr_planner.apf import N_OUTPUTS as N_PLANNER_OUTPUTS
 from twbr_planner.apf import PROGRESS_COLUMNS, Q_MODE, Q_OMEGA, Q_V, STUCK, apf_step, progress_capacity
 from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner_params import APF_SPECS
+from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import check_consistent as check_planner
 from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
 from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at
-from twbr_sim.simulator import steps_per_publish
+from twbr_sim.simulator import SIM_SPECS, steps_per_publish
 from twbr_sim.world import (
     N_SEGMENT,
     N_TALLY,
@@ -57,32 +60,92 @@ from twbr_sim.world import (
     yaw_rate_draws,
 )
 
-WORLD_RATE = 20.0  # [Hz] sim_node's default world_rate: collisions and clearance are sampled at it
-PLANNER_RATE = 20.0  # [Hz] planner_node's default rate
-STAMP_SLACK = 1e-9  # [s] a rate's next instant counts as reached this early (float sums of periods)
+WORLD_RATE = default_of(SIM_SPECS, "world_rate")  # [Hz] collisions and clearance are sampled at it
+PLANNER_RATE = default_of(PLANNER_NODE_SPECS, "rate")  # [Hz]
+PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 
+# What every robot of a batch shares besides the controller's and planner's settings: the step [s], the
+# control period in physics steps, the samples of a run, the planner's and world's periods [s], whether
+# there is a target and the run ends on it, the target's speed [m/s], turn interval [s] and capture
+# radius [m], and the rows of the planner's progress ring.
+RUN_LAYOUT = Layout((
+    "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
+    "target_speed", "turn_interval", "capture_radius", "ring_rows",
+))
+U_H = RUN_LAYOUT["h"]
+U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
+U_N_SAMPLES = RUN_LAYOUT["n_samples"]
+U_PLANNER_PERIOD = RUN_LAYOUT["planner_period"]
+U_WORLD_PERIOD = RUN_LAYOUT["world_period"]
+U_HAS_TARGET = RUN_LAYOUT["has_target"]
+U_END_ON_TARGET = RUN_LAYOUT["end_on_target"]
+U_TARGET_SPEED = RUN_LAYOUT["target_speed"]
+U_TURN_INTERVAL = RUN_LAYOUT["turn_interval"]
+U_CAPTURE_RADIUS = RUN_LAYOUT["capture_radius"]
+U_RING_ROWS = RUN_LAYOUT["ring_rows"]
 # Per-robot result columns.
-(Z_REACHED_AT, Z_COLLISIONS, Z_MIN_CLEARANCE, Z_PITCH_MIN, Z_PITCH_MAX, Z_FALLEN, Z_STUCK_STEPS, Z_SIM_TIME,
- Z_SAMPLES, Z_PHYSICS_STEPS) = range(10)
-N_RESULT = 10
+RESULT_LAYOUT = Layout((
+    "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
+    "samples", "physics_steps",
+))
+Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
+Z_COLLISIONS = RESULT_LAYOUT["collisions"]
+Z_MIN_CLEARANCE = RESULT_LAYOUT["min_clearance"]
+Z_PITCH_MIN = RESULT_LAYOUT["pitch_min"]
+Z_PITCH_MAX = RESULT_LAYOUT["pitch_max"]
+Z_FALLEN = RESULT_LAYOUT["fallen"]
+Z_STUCK_STEPS = RESULT_LAYOUT["stuck_steps"]
+Z_SIM_TIME = RESULT_LAYOUT["sim_time"]
+Z_SAMPLES = RESULT_LAYOUT["samples"]
+Z_PHYSICS_STEPS = RESULT_LAYOUT["physics_steps"]
+N_RESULT = len(RESULT_LAYOUT)
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
 # [m/s], yaw [rad], the controller's wheel torque commands [N*m] and the references [m/s, rad/s].
 TRACE_COLUMNS = ("t", "x_c", "y_c", "pitch", "velocity", "yaw", "left_torque", "right_torque", "velocity_ref",
                  "yaw_rate_ref")
-N_TRACE = len(TRACE_COLUMNS)
+TRACE_LAYOUT = Layout(TRACE_COLUMNS)
+T_T = TRACE_LAYOUT["t"]
+T_X_C = TRACE_LAYOUT["x_c"]
+T_Y_C = TRACE_LAYOUT["y_c"]
+T_PITCH = TRACE_LAYOUT["pitch"]
+T_VELOCITY = TRACE_LAYOUT["velocity"]
+T_YAW = TRACE_LAYOUT["yaw"]
+T_LEFT_TORQUE = TRACE_LAYOUT["left_torque"]
+T_RIGHT_TORQUE = TRACE_LAYOUT["right_torque"]
+T_VELOCITY_REF = TRACE_LAYOUT["velocity_ref"]
+T_YAW_RATE_REF = TRACE_LAYOUT["yaw_rate_ref"]
+N_TRACE = len(TRACE_LAYOUT)
 
 
 @kernel
-def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, world_period, has_target,
-              end_on_target, target_speed, turn_interval, capture_radius, segment, draws, obstacle_start,
-              obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows, result, trace):
-    """One robot's whole run, as run_closed_loop with the planner or the command profile as reference."""
+def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velocity, radii, profile, result,
+              trace):
+    """One robot's whole run, as run_closed_loop with the planner or the command profile as reference.
+
+    p: robot parameters (robot_params.ROBOT_LAYOUT), state (dynamics.STATE_LAYOUT), c: controller settings
+    (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; the target's
+    segment and yaw-rate draws, the obstacles' start [m], velocity [m/s] and radii [m], the command
+    profile (three rows: t [s], v [m/s], omega [rad/s]); result: RESULT_LAYOUT; trace: rows of TRACE_LAYOUT.
+    """
+    h = run[U_H]
+    steps_per_control = int(run[U_STEPS_PER_CONTROL])
+    n_samples = int(run[U_N_SAMPLES])
+    planner_period = run[U_PLANNER_PERIOD]
+    world_period = run[U_WORLD_PERIOD]
+    has_target = run[U_HAS_TARGET] != 0.0
+    end_on_target = run[U_END_ON_TARGET] != 0.0
+    target_speed = run[U_TARGET_SPEED]
+    turn_interval = run[U_TURN_INTERVAL]
+    capture_radius = run[U_CAPTURE_RADIUS]
+    cmd_times = profile[0]
+    cmd_speeds = profile[1]
+    cmd_yaw_rates = profile[2]
     work = np.empty((WORK_ROWS, N_STATE))
     control = np.zeros(N_CONTROL_STATE)
     control[K_ENABLED] = 1.0
     control_out = np.empty(N_CONTROL_OUTPUTS)
     memory = np.zeros(N_PLANNER_MEMORY)
-    ring = np.zeros((ring_rows, PROGRESS_COLUMNS))
+    ring = np.zeros((int(run[U_RING_ROWS]), PROGRESS_COLUMNS))
     plan_out = np.empty(N_PLANNER_OUTPUTS)
     tally = np.zeros(N_TALLY)
     positions = np.empty_like(obstacle_start)
@@ -93,8 +156,8 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
 
     step_count = 0
     fallen = False
-    world_next = 0.0
-    plan_next = 0.0
+    world_next = -math.inf
+    plan_next = -math.inf
     v_ref = 0.0
     w_ref = 0.0
     reached_at = math.nan
@@ -110,8 +173,8 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
         y = state[S_YC]
         pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
         pitch_rate = state[S_THD]
-        if t + STAMP_SLACK >= world_next:  # the world's assessment, at the world rate
-            world_next = t + world_period
+        if is_due(t, world_next):  # the world's assessment, at the world rate
+            world_next = next_due(t, world_next, world_period)
             obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
             clearance, _hit = assess_obstacles(positions, radii, robot_radius, x, y, tally)
             min_clearance = min(min_clearance, clearance)
@@ -120,8 +183,8 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
                 if math.hypot(tx - x, ty - y) <= capture_radius:
                     reached_at = t
         if has_target:
-            if t + STAMP_SLACK >= plan_next:  # the planner, at its rate, on the world at time t
-                plan_next = t + planner_period
+            if is_due(t, plan_next):  # the planner, at its rate, on the world at time t
+                plan_next = next_due(t, plan_next, planner_period)
                 tx, ty, _heading, tvx, tvy = target_at(segment, target_speed, t)
                 obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
                 apf_step(a, memory, ring, plan_out, t, x, y, state[S_PSI], state[S_XD], tx, ty, tvx, tvy,
@@ -138,16 +201,16 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
         pitch_max = max(pitch_max, pitch)
         if record:
             row = trace[k]
-            row[0] = t
-            row[1] = x
-            row[2] = y
-            row[3] = pitch
-            row[4] = state[S_XD]
-            row[5] = state[S_PSI]
-            row[6] = control_out[O_LEFT]
-            row[7] = control_out[O_RIGHT]
-            row[8] = control_out[O_VELOCITY_REF]
-            row[9] = control_out[O_YAW_RATE_REF]
+            row[T_T] = t
+            row[T_X_C] = x
+            row[T_Y_C] = y
+            row[T_PITCH] = pitch
+            row[T_VELOCITY] = state[S_XD]
+            row[T_YAW] = state[S_PSI]
+            row[T_LEFT_TORQUE] = control_out[O_LEFT]
+            row[T_RIGHT_TORQUE] = control_out[O_RIGHT]
+            row[T_VELOCITY_REF] = control_out[O_VELOCITY_REF]
+            row[T_YAW_RATE_REF] = control_out[O_YAW_RATE_REF]
         if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
             break
         left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
@@ -169,16 +232,13 @@ def run_robot(p, state, c, a, h, steps_per_control, n_samples, planner_period, w
 
 
 @parallel_kernel
-def _run_robots(params, states, c, a, h, steps_per_control, n_samples, planner_period, world_period, has_target,
-                end_on_target, target_speed, turn_interval, capture_radius, segments, draws, obstacle_start,
-                obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows, results, traces):
+def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
+                results, traces):
     record = traces.shape[0] > 0
     for i in numba.prange(params.shape[0]):
         trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
-        run_robot(params[i], states[i], c, a, h, steps_per_control, n_samples, planner_period, world_period,
-                  has_target, end_on_target, target_speed, turn_interval, capture_radius, segments[i], draws[i],
-                  obstacle_start, obstacle_velocity, radii, cmd_times, cmd_speeds, cmd_yaw_rates, ring_rows,
-                  results[i], trace)
+        run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start, obstacle_velocity, radii,
+                  profile, results[i], trace)
 
 
 @dataclass
@@ -208,7 +268,7 @@ def run_batch(
     params: np.ndarray,
     control: Mapping[str, Any] | None = None,
     planner: Mapping[str, Any] | None = None,
-    physics_rate: float = 1000.0,
+    physics_rate: float = PHYSICS_RATE,
     planner_rate: float = PLANNER_RATE,
     world_rate: float = WORLD_RATE,
     duration: float | None = None,
@@ -244,16 +304,17 @@ def run_batch(
     obstacle_start = np.array([[o.x, o.y] for o in obstacles], dtype=float).reshape(-1, 2)
     obstacle_velocity = np.array([[o.vx, o.vy] for o in obstacles], dtype=float).reshape(-1, 2)
     radii = np.array([o.radius for o in obstacles], dtype=float)
-    cmd_times, cmd_speeds, cmd_yaw_rates = command_profile(sc)
+    profile = np.ascontiguousarray(np.stack(command_profile(sc)))
+    run = RUN_LAYOUT.pack({
+        "h": 1.0 / physics_rate, "steps_per_control": steps_per_control, "n_samples": n_samples,
+        "planner_period": 1.0 / planner_rate, "world_period": 1.0 / world_rate, "has_target": tgt is not None,
+        "end_on_target": sc.end_on_target, "target_speed": tgt.speed if tgt else 0.0,
+        "turn_interval": tgt.turn_interval if tgt else 1.0, "capture_radius": tgt.capture_radius if tgt else 0.0,
+        "ring_rows": progress_capacity(planner_cfg["stuck_time"], planner_rate),
+    })
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
     with numba.parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
-        _run_robots(
-            params, states, control_vector(control_cfg), planner_vector(planner_cfg), 1.0 / physics_rate,
-            steps_per_control, n_samples, 1.0 / planner_rate, 1.0 / world_rate, tgt is not None,
-            sc.end_on_target, tgt.speed if tgt else 0.0, tgt.turn_interval if tgt else 1.0,
-            tgt.capture_radius if tgt else 0.0, segments, draws, obstacle_start, obstacle_velocity, radii,
-            cmd_times, cmd_speeds, cmd_yaw_rates, progress_capacity(planner_cfg["stuck_time"], planner_rate),
-            results, traces,
-        )
+        _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
+                    obstacle_start, obstacle_velocity, radii, profile, results, traces)
     return BatchResult(results, traces if record else None, physics_rate)

@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.params import defaults, validate_all
+from twbr_common.params import default_of, defaults, validate_all
+from twbr_common.timing import Decimator
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_control.controller_params import check_consistent as check_controller
@@ -88,21 +89,23 @@ def run_closed_loop(
     return Trace(outputs["stamp"], outputs, path[:, 0], path[:, 1], path[:, 2], path[:, 3], simulator.fallen)
 
 
-def planner_reference(planner: Mapping[str, Any] | None = None, rate: float = 20.0,
+def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
                       log: list | None = None) -> Reference:
-    """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz]."""
+    """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
+    planner node's default when None)."""
     from twbr_planner.apf import ApfPlanner, Obstacles, Target
     from twbr_planner.planner_params import APF_SPECS, check_consistent
+    from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 
     cfg = check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})}))
-    core = ApfPlanner(cfg)
-    period = 1.0 / rate
-    held = {"next": 0.0, "cmd": (0.0, 0.0)}
+    rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
+    core = ApfPlanner(cfg, rate)
+    due = Decimator(rate)
+    held = {"cmd": (0.0, 0.0)}
 
     def reference(t: float, sim: Simulator) -> tuple[float, float]:
-        if t + 1e-9 < held["next"]:
+        if not due.due(t):
             return held["cmd"]
-        held["next"] = t + period
         s = sim.state
         world = sim.world
         state = world.target() if world is not None else None

@@ -49,6 +49,7 @@ from twbr_batch.batch import (
     run_batch,
 )
 from twbr_common.params import ConfigError, defaults
+from twbr_common.timing import Decimator
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
@@ -141,11 +142,11 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[
     planner_log: list = []
     plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
     command = scenario_reference(scenario)
-    world = {"next": 0.0, "reached_at": None, "min_clearance": math.inf, "collisions": 0}
+    world = {"reached_at": None, "min_clearance": math.inf, "collisions": 0}
+    world_due = Decimator(WORLD_RATE)
 
     def reference(t: float, sim) -> tuple[float, float]:
-        if t + 1e-9 >= world["next"]:
-            world["next"] = t + 1.0 / WORLD_RATE
+        if world_due.due(t):
             a = sim.assess()
             world["min_clearance"] = min(world["min_clearance"], a.clearance)
             world["collisions"] = sim.world.collision_count

@@ -142,6 +142,14 @@ def markdown_table(specs: Iterable[ParamSpec]) -> str:
     return "\n".join(rows)
 
 
+def default_of(specs: Iterable[ParamSpec], name: str) -> Any:
+    """The default of one parameter: the one place a default is written is its spec."""
+    for spec in specs:
+        if spec.name == name:
+            return spec.default
+    raise KeyError(f"no parameter {name!r} in these specs")
+
+
 def tunable(*specs: ParamSpec) -> tuple[ParamSpec, ...]:
     """The same specs, changeable while the node runs."""
     return tuple(replace(s, tunable=True) for s in specs)

@@ -1,11 +1,34 @@
-"""Decimation of a fast loop into slower publications (tf, world topics, markers) and plans."""
+"""When a rate is due: one rule for every decimated loop (the simulator's publications, the planner's
+instants, the headless closed loop and the batch engine's planner and world).
+
+A rate keeps its grid (due_at, due_at + period, ...), so float sums of periods never drift the instants;
+an instant counts as reached up to SLACK early, the resolution of a stamp; a call that comes a whole
+period late (a stall) restarts the grid from the call instead of queueing a burst of due instants.
+"""
 
 from __future__ import annotations
 
+from twbr_common.jit import kernel
+
+SLACK = 1e-9  # [s] one nanosecond, a stamp's resolution
+
+
+@kernel
+def is_due(t: float, due_at: float) -> bool:
+    """Whether time t [s] has reached the instant due_at [s] (-inf: the first call)."""
+    return t + SLACK >= due_at
+
+
+@kernel
+def next_due(t: float, due_at: float, period: float) -> float:
+    """The instant after the due instant due_at, reached at t: the next on the grid, or t + period after a stall."""
+    following = due_at + period
+    return following if following > t + SLACK else t + period
+
 
 class Decimator:
-    """`due(t)` is true once per period of sim or wall time t; a late call does not queue up a burst, and a
-    time earlier than the last due instant (a restarted simulator) restarts the schedule."""
+    """`due(t)` is true once per period of sim or wall time t, by is_due/next_due; a time earlier than the
+    last due instant (a restarted simulator) restarts the schedule."""
 
     def __init__(self, rate: float) -> None:
         if not rate > 0.0:
@@ -14,17 +37,14 @@ class Decimator:
         self.restart()
 
     def restart(self) -> None:
-        self._next: float | None = None
+        self._next = float("-inf")
         self._last: float | None = None
 
     def due(self, t: float) -> bool:
         if self._last is not None and t < self._last:
             self.restart()
-        if self._next is not None and t + 1e-12 < self._next:
+        if not is_due(t, self._next):
             return False
-        if self._next is None or self._next + self.period <= t:
-            self._next = t + self.period  # first call, or after a stall: restart the schedule from now
-        else:
-            self._next += self.period
+        self._next = next_due(t, self._next, self.period)
         self._last = t
         return True

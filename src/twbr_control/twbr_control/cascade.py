@@ -22,24 +22,57 @@ from typing import Any
 import numpy as np
 
 from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, PidGains, pid_reset, pid_update
 
-# Settings vector: the loop's scalars, then the three PIDs' gains (pid.G_* layout).
-C_PERIOD, C_MAX_V_REF, C_MAX_W_REF, C_PITCH_OFFSET, C_MAX_TORQUE, C_FALL_PITCH, C_MAX_GAP = range(7)
-C_VELOCITY = 7
-C_PITCH = C_VELOCITY + N_GAINS
-C_YAW_RATE = C_PITCH + N_GAINS
-N_SETTINGS = C_YAW_RATE + N_GAINS
-# Memory vector: the loop's state, then the three PIDs' memories (pid.M_* layout).
-K_LAST_STAMP, K_HAS_LAST, K_COMMON_SAT, K_DIFF_SAT, K_FALLEN, K_ENABLED = range(6)
-K_VELOCITY = 6
-K_PITCH = K_VELOCITY + N_MEMORY
-K_YAW_RATE = K_PITCH + N_MEMORY
-N_STATE = K_YAW_RATE + N_MEMORY
+# Settings vector: the loop's scalars (controller_params names; `period` is 1/rate), then the three PIDs'
+# gains (pid.GAINS_LAYOUT each).
+SETTINGS_LAYOUT = Layout((
+    "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
+    "max_sample_gap", ("velocity", N_GAINS), ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
+))
+C_PERIOD = SETTINGS_LAYOUT["period"]
+C_MAX_V_REF = SETTINGS_LAYOUT["max_velocity_ref"]
+C_MAX_W_REF = SETTINGS_LAYOUT["max_yaw_rate_ref"]
+C_PITCH_OFFSET = SETTINGS_LAYOUT["pitch_offset"]
+C_MAX_TORQUE = SETTINGS_LAYOUT["max_wheel_torque"]
+C_FALL_PITCH = SETTINGS_LAYOUT["fall_pitch"]
+C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
+C_VELOCITY = SETTINGS_LAYOUT["velocity"]
+C_PITCH = SETTINGS_LAYOUT["pitch"]
+C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
+N_SETTINGS = len(SETTINGS_LAYOUT)
+# Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
+MEMORY_LAYOUT = Layout((
+    "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
+    ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+))
+K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
+K_HAS_LAST = MEMORY_LAYOUT["has_last"]
+K_COMMON_SAT = MEMORY_LAYOUT["common_saturated"]
+K_DIFF_SAT = MEMORY_LAYOUT["differential_saturated"]
+K_FALLEN = MEMORY_LAYOUT["fallen"]
+K_ENABLED = MEMORY_LAYOUT["enabled"]
+K_VELOCITY = MEMORY_LAYOUT["velocity"]
+K_PITCH = MEMORY_LAYOUT["pitch"]
+K_YAW_RATE = MEMORY_LAYOUT["yaw_rate"]
+N_STATE = len(MEMORY_LAYOUT)
 # Output vector of one sample.
-(O_VELOCITY_REF, O_YAW_RATE_REF, O_PITCH_REF, O_COMMON, O_DIFFERENTIAL, O_LEFT, O_RIGHT, O_DT,
- O_PITCH_REF_LIMITED, O_TORQUE_SATURATED) = range(10)
-N_OUTPUTS = 10
+OUTPUT_LAYOUT = Layout((
+    "velocity_ref", "yaw_rate_ref", "pitch_ref", "common_torque", "differential_torque", "left_torque",
+    "right_torque", "dt", "pitch_ref_limited", "torque_saturated",
+))
+O_VELOCITY_REF = OUTPUT_LAYOUT["velocity_ref"]
+O_YAW_RATE_REF = OUTPUT_LAYOUT["yaw_rate_ref"]
+O_PITCH_REF = OUTPUT_LAYOUT["pitch_ref"]
+O_COMMON = OUTPUT_LAYOUT["common_torque"]
+O_DIFFERENTIAL = OUTPUT_LAYOUT["differential_torque"]
+O_LEFT = OUTPUT_LAYOUT["left_torque"]
+O_RIGHT = OUTPUT_LAYOUT["right_torque"]
+O_DT = OUTPUT_LAYOUT["dt"]
+O_PITCH_REF_LIMITED = OUTPUT_LAYOUT["pitch_ref_limited"]
+O_TORQUE_SATURATED = OUTPUT_LAYOUT["torque_saturated"]
+N_OUTPUTS = len(OUTPUT_LAYOUT)
 
 
 @dataclass(frozen=True)
@@ -77,22 +110,15 @@ def _copysign_int(value):
 def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
     """The controller's validated parameters (controller_params) in the kernel's layout."""
     s = settings
-    c = np.zeros(N_SETTINGS)
-    c[C_PERIOD] = 1.0 / s["rate"]
-    c[C_MAX_V_REF] = s["max_velocity_ref"]
-    c[C_MAX_W_REF] = s["max_yaw_rate_ref"]
-    c[C_PITCH_OFFSET] = s["pitch_offset"]
-    c[C_MAX_TORQUE] = s["max_wheel_torque"]
-    c[C_FALL_PITCH] = s["fall_pitch"]
-    c[C_MAX_GAP] = s["max_sample_gap"]
-    c[C_VELOCITY:C_PITCH] = PidGains(
+    c = SETTINGS_LAYOUT.pack({**s, "period": 1.0 / s["rate"]})
+    c[SETTINGS_LAYOUT.block("velocity")] = PidGains(
         s["velocity.kp"], s["velocity.ki"], s["velocity.kd"], s["velocity.derivative_filter"],
         s["max_pitch_ref"], s["velocity.setpoint_weight"],
     ).vector()
-    c[C_PITCH:C_YAW_RATE] = PidGains(
+    c[SETTINGS_LAYOUT.block("pitch")] = PidGains(
         s["pitch.kp"], s["pitch.ki"], s["pitch.kd"], s["pitch.derivative_filter"], s["max_wheel_torque"],
     ).vector()
-    c[C_YAW_RATE:] = PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"]).vector()
+    c[SETTINGS_LAYOUT.block("yaw_rate")] = PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"]).vector()
     return c
 
 

@@ -18,16 +18,30 @@ call it, on a gains vector (G_*) and a memory vector (M_*) per loop.
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 
-G_KP, G_KI, G_KD, G_FILTER, G_LIMIT, G_WEIGHT = range(6)
-N_GAINS = 6
-M_INTEGRAL, M_PREVIOUS, M_HAS_PREVIOUS, M_RATE, M_OUTPUT, M_LIMITED = range(6)
-N_MEMORY = 6
+# One loop's gains (the fields of PidGains, in order) and its memory.
+GAINS_LAYOUT = Layout(("kp", "ki", "kd", "derivative_filter", "output_limit", "setpoint_weight"))
+G_KP = GAINS_LAYOUT["kp"]
+G_KI = GAINS_LAYOUT["ki"]
+G_KD = GAINS_LAYOUT["kd"]
+G_FILTER = GAINS_LAYOUT["derivative_filter"]
+G_LIMIT = GAINS_LAYOUT["output_limit"]
+G_WEIGHT = GAINS_LAYOUT["setpoint_weight"]
+N_GAINS = len(GAINS_LAYOUT)
+MEMORY_LAYOUT = Layout(("integral", "previous", "has_previous", "rate", "output", "limited"))
+M_INTEGRAL = MEMORY_LAYOUT["integral"]
+M_PREVIOUS = MEMORY_LAYOUT["previous"]
+M_HAS_PREVIOUS = MEMORY_LAYOUT["has_previous"]
+M_RATE = MEMORY_LAYOUT["rate"]
+M_OUTPUT = MEMORY_LAYOUT["output"]
+M_LIMITED = MEMORY_LAYOUT["limited"]
+N_MEMORY = len(MEMORY_LAYOUT)
 
 
 @dataclass(frozen=True)
@@ -40,8 +54,8 @@ class PidGains:
     setpoint_weight: float = 1.0  # b: the proportional term acts on b*setpoint - measurement
 
     def vector(self) -> np.ndarray:
-        """The gains in the kernel's layout (G_*)."""
-        return np.array(astuple(self), dtype=float)
+        """The gains in the kernel's layout (GAINS_LAYOUT, by field name)."""
+        return GAINS_LAYOUT.pack(asdict(self))
 
 
 @kernel

@@ -34,6 +34,10 @@ import numpy as np
 
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
+from twbr_common.layout import Layout
+from twbr_common.params import default_of
+from twbr_planner.planner_params import APF_SPECS
+from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 
 
 class Mode(Enum):
@@ -49,27 +53,60 @@ class Mode(Enum):
 MODES = tuple(Mode)  # a mode's code in the kernels is its index here
 TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET = range(len(MODES))
 
-# Settings vector, in the order of planner_params.APF_SPECS.
-(A_K_P, A_K_V, A_K_O, A_RHO_O, A_K_S, A_V_MAX, A_MAX_YAW_RATE, A_ROBOT_RADIUS, A_MIN_DISTANCE, A_CAPTURE_RADIUS,
- A_APPROACH_GAIN, A_SLOW_IN_TURNS, A_MAX_ACCELERATION, A_MAX_YAW_ACCELERATION, A_STUCK_TIME,
- A_STUCK_PROGRESS) = range(16)
-SETTING_NAMES = ("k_p", "k_v", "k_o", "rho_o", "k_s", "v_max", "max_yaw_rate", "robot_radius", "min_distance",
-                 "capture_radius", "approach_gain", "slow_in_turns", "max_acceleration", "max_yaw_acceleration",
-                 "stuck_time", "stuck_progress")
+# Settings vector: planner_params.APF_SPECS by name.
+SETTINGS_LAYOUT = Layout(spec.name for spec in APF_SPECS)
+A_K_P = SETTINGS_LAYOUT["k_p"]
+A_K_V = SETTINGS_LAYOUT["k_v"]
+A_K_O = SETTINGS_LAYOUT["k_o"]
+A_RHO_O = SETTINGS_LAYOUT["rho_o"]
+A_K_S = SETTINGS_LAYOUT["k_s"]
+A_V_MAX = SETTINGS_LAYOUT["v_max"]
+A_MAX_YAW_RATE = SETTINGS_LAYOUT["max_yaw_rate"]
+A_ROBOT_RADIUS = SETTINGS_LAYOUT["robot_radius"]
+A_MIN_DISTANCE = SETTINGS_LAYOUT["min_distance"]
+A_CAPTURE_RADIUS = SETTINGS_LAYOUT["capture_radius"]
+A_APPROACH_GAIN = SETTINGS_LAYOUT["approach_gain"]
+A_SLOW_IN_TURNS = SETTINGS_LAYOUT["slow_in_turns"]
+A_MAX_ACCELERATION = SETTINGS_LAYOUT["max_acceleration"]
+A_MAX_YAW_ACCELERATION = SETTINGS_LAYOUT["max_yaw_acceleration"]
+A_STUCK_TIME = SETTINGS_LAYOUT["stuck_time"]
+A_STUCK_PROGRESS = SETTINGS_LAYOUT["stuck_progress"]
 # Memory vector: the last command (for the acceleration limits) and the progress ring's head and length.
-R_HAS_LAST, R_LAST_STAMP, R_LAST_V, R_LAST_OMEGA, R_HEAD, R_LENGTH = range(6)
-N_MEMORY = 6
+MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length"))
+R_HAS_LAST = MEMORY_LAYOUT["has_last"]
+R_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
+R_LAST_V = MEMORY_LAYOUT["last_v"]
+R_LAST_OMEGA = MEMORY_LAYOUT["last_omega"]
+R_HEAD = MEMORY_LAYOUT["head"]
+R_LENGTH = MEMORY_LAYOUT["length"]
+N_MEMORY = len(MEMORY_LAYOUT)
 PROGRESS_COLUMNS = 4  # (t, distance, x, y) per planning step
 # Output vector of one step.
-(Q_F_ATT_X, Q_F_ATT_Y, Q_F_REP_X, Q_F_REP_Y, Q_ALPHA, Q_ERROR, Q_V, Q_OMEGA, Q_DISTANCE, Q_NEAREST_D,
- Q_NEAREST_INDEX, Q_MODE) = range(12)
-N_OUTPUTS = 12
-FIRST_PERIOD = 0.05  # [s] the first command's acceleration step (one period at the node's default 20 Hz)
+OUTPUT_LAYOUT = Layout((
+    "attractive_force_x", "attractive_force_y", "repulsive_force_x", "repulsive_force_y", "desired_heading",
+    "heading_error", "velocity_cmd", "yaw_rate_cmd", "distance_to_target", "nearest_obstacle_distance",
+    "nearest_obstacle_index", "mode",
+))
+Q_F_ATT_X = OUTPUT_LAYOUT["attractive_force_x"]
+Q_F_ATT_Y = OUTPUT_LAYOUT["attractive_force_y"]
+Q_F_REP_X = OUTPUT_LAYOUT["repulsive_force_x"]
+Q_F_REP_Y = OUTPUT_LAYOUT["repulsive_force_y"]
+Q_ALPHA = OUTPUT_LAYOUT["desired_heading"]
+Q_ERROR = OUTPUT_LAYOUT["heading_error"]
+Q_V = OUTPUT_LAYOUT["velocity_cmd"]
+Q_OMEGA = OUTPUT_LAYOUT["yaw_rate_cmd"]
+Q_DISTANCE = OUTPUT_LAYOUT["distance_to_target"]
+Q_NEAREST_D = OUTPUT_LAYOUT["nearest_obstacle_distance"]
+Q_NEAREST_INDEX = OUTPUT_LAYOUT["nearest_obstacle_index"]
+Q_MODE = OUTPUT_LAYOUT["mode"]
+N_OUTPUTS = len(OUTPUT_LAYOUT)
+# [s] the first command's acceleration step: one period at the node's default rate.
+FIRST_PERIOD = 1.0 / default_of(PLANNER_NODE_SPECS, "rate")
 
 
 def settings_vector(g: Mapping[str, Any]) -> np.ndarray:
     """The planner's validated parameters (planner_params.APF_SPECS) in the kernel's layout."""
-    return np.array([float(g[name]) for name in SETTING_NAMES])
+    return SETTINGS_LAYOUT.pack(g)
 
 
 def progress_capacity(stuck_time: float, rate: float) -> int:
@@ -332,11 +369,13 @@ class PlannerOutput:
 class ApfPlanner:
     """Eqs. 19-28 plus arrival, following and a stuck (local minimum) report."""
 
-    def __init__(self, g: Mapping[str, Any]) -> None:
+    def __init__(self, g: Mapping[str, Any], rate: float | None = None) -> None:
+        """`g`: APF_SPECS values; `rate` [Hz]: how often `step` is called (the node's default when None)."""
         self.g = dict(g)
         self.a = settings_vector(self.g)
         self.m = np.zeros(N_MEMORY)
-        self._ring = np.zeros((progress_capacity(self.g["stuck_time"], 20.0), PROGRESS_COLUMNS))
+        rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
+        self._ring = np.zeros((progress_capacity(self.g["stuck_time"], rate), PROGRESS_COLUMNS))
         self._out = np.zeros(N_OUTPUTS)
 
     def reset(self) -> None:

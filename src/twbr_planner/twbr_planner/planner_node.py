@@ -42,7 +42,7 @@ class PlannerNode(Node):
     def __init__(self) -> None:
         super().__init__("planner_node")
         self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
-        self.core = ApfPlanner(self.cfg)
+        self.core = ApfPlanner(self.cfg, self.cfg["rate"])
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.inputs = input_streams(self)
         self.inputs.add("odom", self.cfg["odom_timeout"], limit=POSITION_LIMIT)

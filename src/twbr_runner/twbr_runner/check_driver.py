@@ -24,6 +24,7 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import Imu, JointState
 
 from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.params import default_of
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, stamp_seconds
 from twbr_msgs.msg import WheelTorques
 from twbr_runner.conformance import (
@@ -38,6 +39,7 @@ from twbr_runner.conformance import (
     check_stamps,
     check_type,
 )
+from twbr_sim.simulator import SIM_SPECS
 
 
 class DriverChecker(Node):
@@ -148,7 +150,8 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv if argv is None else argv
     ap = argparse.ArgumentParser(prog="check_driver", description=__doc__.split("\n")[0])
-    ap.add_argument("--rate", type=float, default=200.0, help="expected rate of odom, imu, joint_states [Hz]")
+    ap.add_argument("--rate", type=float, default=default_of(SIM_SPECS, "publish_rate"),
+                    help="expected rate of odom, imu, joint_states [Hz]")
     ap.add_argument("--tolerance", type=float, default=0.2, help="allowed relative rate error (default 0.2)")
     ap.add_argument("--window", type=float, default=1.0, help="driver seconds of passive listening")
     ap.add_argument("--torque", type=float, default=1.0, help="forward torque pulse on both wheels [N·m]")

@@ -29,8 +29,9 @@ from pathlib import Path
 from typing import Any
 
 from twbr_common.param_files import KNOWN_NODES, node_parameters
-from twbr_common.params import ConfigError
+from twbr_common.params import ConfigError, default_of
 from twbr_common.paths import config_dir
+from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
@@ -114,7 +115,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     # is matched, and, with a planner, waits for its output at every planning instant as well.
     planner = scenario.target is not None
     planner_rate = node_parameters(config / "planner.yaml", "planner_node").get(
-        "rate", 20.0) if planner else 0.0
+        "rate", default_of(PLANNER_NODE_SPECS, "rate")) if planner else 0.0
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
         *params_files(config, "robot.yaml", "sim.yaml"),
         "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",

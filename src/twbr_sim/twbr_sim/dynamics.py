@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from twbr_common.jit import kernel, parallel_kernel
+from twbr_common.layout import Layout
 from twbr_sim.robot_params import (
     D_A,
     D_C2,
@@ -54,12 +55,24 @@ from twbr_sim.robot_params import (
     P_VMAX,
 )
 
-S_X, S_XD, S_TH, S_THD, S_PSI, S_PSID, S_XC, S_YC, S_GL, S_GR, S_IL, S_IR = range(12)
-N_STATE = 12
 STATE_NAMES = (
     "x", "x_dot", "pitch", "pitch_rate", "yaw", "yaw_rate",
     "x_c", "y_c", "wheel_angle_left", "wheel_angle_right", "current_left", "current_right",
 )
+STATE_LAYOUT = Layout(STATE_NAMES)
+S_X = STATE_LAYOUT["x"]
+S_XD = STATE_LAYOUT["x_dot"]
+S_TH = STATE_LAYOUT["pitch"]
+S_THD = STATE_LAYOUT["pitch_rate"]
+S_PSI = STATE_LAYOUT["yaw"]
+S_PSID = STATE_LAYOUT["yaw_rate"]
+S_XC = STATE_LAYOUT["x_c"]
+S_YC = STATE_LAYOUT["y_c"]
+S_GL = STATE_LAYOUT["wheel_angle_left"]
+S_GR = STATE_LAYOUT["wheel_angle_right"]
+S_IL = STATE_LAYOUT["current_left"]
+S_IR = STATE_LAYOUT["current_right"]
+N_STATE = len(STATE_LAYOUT)
 # Rows of the per-robot work array rk4_step needs: k1..k4 and the trial state.
 WORK_ROWS = 5
 

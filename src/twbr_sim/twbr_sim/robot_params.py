@@ -1,8 +1,8 @@
 """The robot's physical and motor parameters (dynamics.md), as specs and as the array the kernels take.
 
 The kernels in `dynamics` are compiled with numba and take the parameters as one float64 vector
-(or one row per robot in a batch); `P_*` are its indices, in the order of ROBOT_SPECS, followed by
-constants derived from them once (D_*: inertia sums, reciprocals) so that the integrator, which
+(or one row per robot in a batch), laid out by ROBOT_LAYOUT: the parameters by their spec names (`P_*`
+indices), followed by constants derived from them once (`D_*`: inertia sums, reciprocals) so that the integrator, which
 evaluates the model four times per step, divides twice per evaluation instead of sixteen times.
 """
 
@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, ParamSpec, validate_all
 
 ROBOT_SPECS: tuple[ParamSpec, ...] = (
@@ -41,16 +42,50 @@ ROBOT_SPECS: tuple[ParamSpec, ...] = (
 )
 
 ROBOT_PARAM_NAMES: tuple[str, ...] = tuple(s.name for s in ROBOT_SPECS)
-(
-    P_G, P_R, P_D, P_L, P_MB, P_MW, P_J, P_K, P_I1, P_I2, P_I3, P_CA,
-    P_KM, P_N, P_RA, P_LA, P_VMAX, P_IMAX, P_KI, P_ROBOT_RADIUS, P_FALL,
-) = range(len(ROBOT_SPECS))
-N_SPEC_PARAMS = len(ROBOT_SPECS)
-(
-    D_INV_R, D_A, D_C2, D_DD, D_ML, D_MGL, D_CA2_R, D_YAW_DAMPING, D_YAW_INERTIA0, D_D_2R, D_HALF_D, D_NK,
-    D_INV_NK, D_INV_LA,
-) = range(N_SPEC_PARAMS, N_SPEC_PARAMS + 14)
-N_PARAMS = N_SPEC_PARAMS + 14
+# Constants derived once from the parameters (dynamics.md's combinations), after them in the vector.
+DERIVED_NAMES: tuple[str, ...] = (
+    "inv_wheel_radius", "translational_mass", "pitch_inertia_axle", "yaw_coupling", "body_moment", "gravity_moment",
+    "friction_2_r", "yaw_damping", "yaw_inertia_upright", "separation_2r", "half_separation", "motor_gain",
+    "inv_motor_gain", "inv_inductance",
+)
+ROBOT_LAYOUT = Layout(ROBOT_PARAM_NAMES + DERIVED_NAMES)
+P_G = ROBOT_LAYOUT["gravity"]
+P_R = ROBOT_LAYOUT["wheel_radius"]
+P_D = ROBOT_LAYOUT["wheel_separation"]
+P_L = ROBOT_LAYOUT["com_height"]
+P_MB = ROBOT_LAYOUT["body_mass"]
+P_MW = ROBOT_LAYOUT["wheel_mass"]
+P_J = ROBOT_LAYOUT["wheel_inertia"]
+P_K = ROBOT_LAYOUT["wheel_yaw_inertia"]
+P_I1 = ROBOT_LAYOUT["body_inertia_roll"]
+P_I2 = ROBOT_LAYOUT["body_inertia_pitch"]
+P_I3 = ROBOT_LAYOUT["body_inertia_yaw"]
+P_CA = ROBOT_LAYOUT["wheel_friction"]
+P_KM = ROBOT_LAYOUT["motor_constant"]
+P_N = ROBOT_LAYOUT["gear_ratio"]
+P_RA = ROBOT_LAYOUT["armature_resistance"]
+P_LA = ROBOT_LAYOUT["armature_inductance"]
+P_VMAX = ROBOT_LAYOUT["supply_voltage"]
+P_IMAX = ROBOT_LAYOUT["current_limit"]
+P_KI = ROBOT_LAYOUT["current_loop_gain"]
+P_ROBOT_RADIUS = ROBOT_LAYOUT["robot_radius"]
+P_FALL = ROBOT_LAYOUT["fall_limit"]
+D_INV_R = ROBOT_LAYOUT["inv_wheel_radius"]
+D_A = ROBOT_LAYOUT["translational_mass"]
+D_C2 = ROBOT_LAYOUT["pitch_inertia_axle"]
+D_DD = ROBOT_LAYOUT["yaw_coupling"]
+D_ML = ROBOT_LAYOUT["body_moment"]
+D_MGL = ROBOT_LAYOUT["gravity_moment"]
+D_CA2_R = ROBOT_LAYOUT["friction_2_r"]
+D_YAW_DAMPING = ROBOT_LAYOUT["yaw_damping"]
+D_YAW_INERTIA0 = ROBOT_LAYOUT["yaw_inertia_upright"]
+D_D_2R = ROBOT_LAYOUT["separation_2r"]
+D_HALF_D = ROBOT_LAYOUT["half_separation"]
+D_NK = ROBOT_LAYOUT["motor_gain"]
+D_INV_NK = ROBOT_LAYOUT["inv_motor_gain"]
+D_INV_LA = ROBOT_LAYOUT["inv_inductance"]
+N_SPEC_PARAMS = len(ROBOT_PARAM_NAMES)
+N_PARAMS = len(ROBOT_LAYOUT)
 
 
 def robot_params(values: Mapping[str, Any] | None = None) -> np.ndarray:

@@ -17,15 +17,24 @@ import numpy as np
 
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 from twbr_sim.scenario import ObstacleSpec, Scenario
 
 # The target's current segment: where and when it started, its heading then, its yaw rate, and the index
 # of the next yaw-rate draw.
-SEG_X, SEG_Y, SEG_HEADING, SEG_T, SEG_YAW_RATE, SEG_NEXT_DRAW = range(6)
-N_SEGMENT = 6
+SEGMENT_LAYOUT = Layout(("x", "y", "heading", "t", "yaw_rate", "next_draw"))
+SEG_X = SEGMENT_LAYOUT["x"]
+SEG_Y = SEGMENT_LAYOUT["y"]
+SEG_HEADING = SEGMENT_LAYOUT["heading"]
+SEG_T = SEGMENT_LAYOUT["t"]
+SEG_YAW_RATE = SEGMENT_LAYOUT["yaw_rate"]
+SEG_NEXT_DRAW = SEGMENT_LAYOUT["next_draw"]
+N_SEGMENT = len(SEGMENT_LAYOUT)
 # The world's tally of collisions: how many began, and whether the robot is in one now.
-W_COLLISIONS, W_IN_COLLISION = range(2)
-N_TALLY = 2
+TALLY_LAYOUT = Layout(("collisions", "in_collision"))
+W_COLLISIONS = TALLY_LAYOUT["collisions"]
+W_IN_COLLISION = TALLY_LAYOUT["in_collision"]
+N_TALLY = len(TALLY_LAYOUT)
 
 
 @dataclass(frozen=True)

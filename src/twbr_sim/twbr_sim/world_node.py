@@ -13,20 +13,21 @@ from visualization_msgs.msg import MarkerArray
 
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
-from twbr_common.params import ParamSpec
+from twbr_common.params import ParamSpec, default_of
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, WorldStatus
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
+from twbr_sim.simulator import SIM_SPECS
 from twbr_sim.world import World
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WORLD_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("scenario", "dynamic_obstacles", "scenario file: a path, or a name in share/twbr_config/config/scenarios"),
     ParamSpec("seed", -1, "seed of the target's turns; -1 takes the scenario's", "", -1, 2**31 - 1),
-    ParamSpec("rate", 20.0, "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
+    ParamSpec("rate", default_of(SIM_SPECS, "world_rate"), "rate of target, obstacles and world_status", "Hz", 0.1, 1000.0),
     ParamSpec("marker_rate", 5.0, "rate of the RViz world markers", "Hz", 0.1, 100.0),
     ParamSpec("robot_radius", 0.30, "footprint radius of the robot for collision checks", "m", 0.0, 10.0, low_open=True),
     ParamSpec("odom_timeout", 0.5, "odometry older than this is not assessed (no world_status)", "s", 0.001, 60.0),

@@ -1,0 +1,66 @@
+"""Each flat vector the kernels share is laid out by the names of the spec it carries (no slot kept in sync
+by hand): what a spec names reaches the slot of that name, and nothing else does."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+
+from twbr_common.params import defaults
+from twbr_control import cascade, pid
+from twbr_control.controller_params import CONTROL_SPECS
+from twbr_planner import apf
+from twbr_planner.planner_params import APF_SPECS
+from twbr_sim import dynamics, robot_params
+from twbr_sim.robot_params import ROBOT_SPECS
+
+
+def test_robot_layout_holds_every_robot_parameter_by_name_then_the_derived_constants():
+    names = [s.name for s in ROBOT_SPECS]
+    assert list(robot_params.ROBOT_LAYOUT.names[: len(names)]) == names
+    p = robot_params.robot_params({"wheel_radius": 0.123, "fall_limit": 0.7})
+    assert p[robot_params.P_R] == 0.123 and p[robot_params.P_FALL] == 0.7
+    assert p[robot_params.D_INV_R] == 1.0 / 0.123
+    assert len(p) == len(robot_params.ROBOT_LAYOUT)
+
+
+def test_controller_settings_take_each_parameter_from_its_spec_name():
+    cfg = defaults(CONTROL_SPECS)
+    scalars = [n for n in cascade.SETTINGS_LAYOUT.names if n not in ("velocity", "pitch", "yaw_rate")]
+    spec_names = {s.name for s in CONTROL_SPECS}
+    assert set(scalars) - spec_names == {"period"}  # 1/rate, the one derived slot
+    # A distinct value per parameter lands in its own slot.
+    distinct = {n: 0.01 * (i + 1) for i, n in enumerate(scalars) if n != "period"}
+    c = cascade.settings_vector({**cfg, **distinct, "rate": 250.0})
+    for name, value in distinct.items():
+        assert c[cascade.SETTINGS_LAYOUT[name]] == value, name
+    assert c[cascade.C_PERIOD] == 1.0 / 250.0
+    pitch = c[cascade.SETTINGS_LAYOUT.block("pitch")]
+    assert pitch[pid.G_KP] == cfg["pitch.kp"] and pitch[pid.G_KD] == cfg["pitch.kd"]
+
+
+def test_pid_gains_layout_is_the_dataclass_fields():
+    assert pid.GAINS_LAYOUT.names == tuple(f.name for f in fields(pid.PidGains))
+    v = pid.PidGains(1.0, 2.0, 3.0, 4.0, 5.0, 0.5).vector()
+    assert v[pid.G_LIMIT] == 5.0 and v[pid.G_WEIGHT] == 0.5
+
+
+def test_planner_settings_are_the_apf_specs_by_name():
+    assert apf.SETTINGS_LAYOUT.names == tuple(s.name for s in APF_SPECS)
+    g = {s.name: float(i + 1) for i, s in enumerate(APF_SPECS)}
+    a = apf.settings_vector(g)
+    assert a[apf.A_RHO_O] == g["rho_o"] and a[apf.A_STUCK_PROGRESS] == g["stuck_progress"]
+
+
+def test_planner_outputs_are_named_like_planner_output():
+    out_fields = {f.name for f in fields(apf.PlannerOutput)}
+    for name in ("velocity_cmd", "yaw_rate_cmd", "distance_to_target", "nearest_obstacle_distance", "mode"):
+        assert name in apf.OUTPUT_LAYOUT.names and name in out_fields
+
+
+def test_state_layout_is_the_state_names():
+    assert dynamics.STATE_LAYOUT.names == dynamics.STATE_NAMES
+    s = dynamics.initial_state(1.0, 2.0, 0.3, 0.01)
+    assert (s[dynamics.S_XC], s[dynamics.S_YC], s[dynamics.S_PSI], s[dynamics.S_TH]) == (1.0, 2.0, 0.3, 0.01)
+    assert s.shape == (len(dynamics.STATE_LAYOUT),) and np.count_nonzero(s) == 4
