@@ -83,7 +83,7 @@ def main() -> int:
     rows = mc.run_study(study, out, progress=False)
     result["study_runs"] = args.study_runs
     result["study_wall_s"] = time.perf_counter() - started
-    result["study_success_rate"] = sum(mc.succeeded(r) for r in rows) / len(rows)
+    result["study_success_rate"] = sum(r.succeeded for r in rows) / len(rows)
     print(f"montecarlo {args.study_runs} runs of {scenario.name} to their end: {result['study_wall_s']:.1f} s"
           f" (success {100 * result['study_success_rate']:.1f} %)")
     big = result[f"batch_robot_steps_per_s_n{SIZES[-1]}"]

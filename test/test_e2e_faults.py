@@ -32,7 +32,7 @@ RELIABLE = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 SIM_PARAMS = ("robot.yaml", "sim.yaml")
 
 
-def course_on_the_cores() -> tuple[dict, Any]:
+def course_on_the_cores() -> tuple[Any, Any]:
     """The course run headless by the same cores, without DDS: what an undisturbed run gives, and its path."""
     from twbr_batch.montecarlo import run_one_traced
 
@@ -118,15 +118,15 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
     odom = series_from_messages(read_messages(run_dir / "bag", ["/odom", "/clock"]))
     assert odom.refused["/odom"] >= 20  # the garbage was there, and it was left out
     t_core, x_core, y_core = (np.asarray(a) for a in (path.t, path.x_c, path.y_c))
-    for second in np.arange(1.0, core["time_to_reach_s"] - 2.0):
+    for second in np.arange(1.0, core.time_to_reach_s - 2.0):
         i = int(np.argmin(np.abs(t_core - second)))
         j = int(np.argmin(np.abs(odom.odom_t - second)))  # the recorder may miss a sample
         assert abs(odom.odom_t[j] - second) <= 0.02, second
         assert math.hypot(odom.x_c[j] - x_core[i], odom.y_c[j] - y_core[i]) < 0.05, (second, odom.x_c[j], x_core[i])
-    assert core["time_to_reach_s"] - 1.0 <= m["time_to_reach_s"] <= core["time_to_reach_s"] + 6.0
-    assert m["min_clearance_m"] == pytest.approx(core["min_clearance_m"], abs=0.05)
-    assert m["pitch_min_rad"] == pytest.approx(core["pitch_min_rad"], abs=0.002)
-    assert m["pitch_max_rad"] == pytest.approx(core["pitch_max_rad"], abs=0.002)
+    assert core.time_to_reach_s - 1.0 <= m["time_to_reach_s"] <= core.time_to_reach_s + 6.0
+    assert m["min_clearance_m"] == pytest.approx(core.min_clearance_m, abs=0.05)
+    assert m["pitch_min_rad"] == pytest.approx(core.pitch_min_rad, abs=0.002)
+    assert m["pitch_max_rad"] == pytest.approx(core.pitch_max_rad, abs=0.002)
     (run_dir / "fault_comparison.json").write_text(json.dumps({"core": core, "sent": sent}, indent=1))
 
 

@@ -89,3 +89,37 @@ def test_a_recorder_killed_with_sigkill_leaves_a_bag_that_recover_bag_makes_read
         print(done.stdout.strip())
     finally:
         recorder.stop(timeout=10)  # a no-op once killed
+
+
+def test_the_recorder_reports_what_it_has_matched_on_a_latched_status_topic(tmp_path, ros, ros_env):
+    # What a runner waits for before it starts the clock, read from the graph instead of the recorder's log.
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    from twbr_msgs.msg import RecorderStatus
+
+    bag = tmp_path / "bag"
+    argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "-a", "odom:nav_msgs/msg/Odometry",
+            "chatter:std_msgs/msg/String"]
+    recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
+    try:
+        reports: list[RecorderStatus] = []
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        ros.node.create_subscription(RecorderStatus, "/recorder/status", reports.append, latched)
+        assert ros.spin_until(lambda: reports, 30.0), recorder.output  # ready: the first report
+        first = reports[-1]
+        assert list(first.topics) == ["/chatter", "/odom"] and list(first.matched_publishers) == [0, 0]
+        assert first.bag == str(bag)
+        pub = ros.node.create_publisher(String, "chatter", 10)
+
+        def matched(topic: str) -> int:
+            last = reports[-1]
+            return dict(zip(last.topics, last.matched_publishers, strict=True)).get(topic, -1)
+
+        assert ros.spin_until(lambda: matched("/chatter") == 1 and matched("/odom") == 0, 30.0), recorder.output
+        ros.node.destroy_publisher(pub)
+        assert ros.spin_until(lambda: matched("/chatter") == 0, 30.0), recorder.output
+        ros.spin_for(0.5)  # -a: the recorder has looked at the graph many times (every 50 ms)
+        assert "/recorder/status" not in [t for r in reports for t in r.topics]  # its own status is not recorded
+    finally:
+        recorder.stop(timeout=10)

@@ -38,11 +38,11 @@ def test_batch_trajectories_equal_the_scalar_cores(name):
         np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
         np.testing.assert_allclose(got["y_c"], trace.y_c, **TOL)
         z = result.table[i]
-        assert bool(z[batch.Z_FALLEN]) == row["fallen"] == trace.fallen
-        if row["time_to_reach_s"] is None:
+        assert bool(z[batch.Z_FALLEN]) == row.fallen == trace.fallen
+        if row.time_to_reach_s is None:
             assert math.isnan(z[batch.Z_REACHED_AT])
         else:
-            assert z[batch.Z_REACHED_AT] == pytest.approx(row["time_to_reach_s"], abs=1e-12)
+            assert z[batch.Z_REACHED_AT] == pytest.approx(row.time_to_reach_s, abs=1e-12)
 
 
 def test_the_runs_are_not_all_alike():

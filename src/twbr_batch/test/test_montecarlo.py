@@ -33,9 +33,9 @@ def test_rows_are_the_same_on_every_engine(course, tmp_path):
     two = mc.run_study(study, tmp_path / "two", "scalar", workers=2, progress=False)
     batch = mc.run_study(study, tmp_path / "batch", "batch", chunk=2, progress=False)
     assert one == two == batch  # every field of every row, exactly
-    assert [r["seed"] for r in one] == [2, 3, 4]
-    assert all(r["reached"] and not r["fallen"] and r["collisions"] == 0 for r in one)
-    assert len({r["time_to_reach_s"] for r in one}) > 1  # seeds move the target and the robot differently
+    assert [r.seed for r in one] == [2, 3, 4]
+    assert all(r.reached and not r.fallen and r.collisions == 0 for r in one)
+    assert len({r.time_to_reach_s for r in one}) > 1  # seeds move the target and the robot differently
     with (tmp_path / "one" / "runs.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert [int(r["seed"]) for r in rows] == [2, 3, 4] and set(rows[0]) == set(mc.COLUMNS)
@@ -51,8 +51,8 @@ def test_perturbation_factors_stay_in_range_and_follow_the_seed():
 def test_a_perturbed_robot_is_really_another_robot(course):
     nominal = mc.run_one(str(course), 5, 0.0)
     perturbed = mc.run_one(str(course), 5, 0.3)
-    assert perturbed["body_mass_factor"] != 1.0
-    assert perturbed["pitch_max_rad"] != nominal["pitch_max_rad"]
+    assert perturbed.factors["body_mass"] != 1.0
+    assert perturbed.pitch_max_rad != nominal.pitch_max_rad
 
 
 @pytest.mark.parametrize(("args", "message"), [

@@ -28,7 +28,7 @@ import sys
 import time
 from collections.abc import Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -56,9 +56,6 @@ from twbr_sim.scenario_files import find_scenario
 
 PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "body_inertia_roll",
              "body_inertia_pitch", "body_inertia_yaw", "motor_constant")
-COLUMNS = ("seed", "perturbation", "reached", "time_to_reach_s", "collisions", "min_clearance_m",
-           "pitch_min_rad", "pitch_max_rad", "fallen", "stuck_time_s", "sim_time_s",
-           *(f"{name}_factor" for name in PERTURBED))
 ENGINES = ("batch", "scalar")
 CHUNK = 250  # robots per batch: large enough to keep the threads busy, small enough for a steady progress bar
 EXIT_BAD_INPUT = 2
@@ -85,6 +82,46 @@ class Study:
         return range(self.first_seed, self.first_seed + self.runs)
 
 
+@dataclass(frozen=True)
+class StudyRow:
+    """One run of a study: a row of runs.csv (the perturbation factors as `<parameter>_factor` columns)."""
+
+    seed: int
+    perturbation: float  # the study's ±fraction
+    reached: bool
+    time_to_reach_s: float | None  # sim time the target was first inside its capture radius
+    collisions: int
+    min_clearance_m: float | None  # to the nearest obstacle's surface; None without obstacles
+    pitch_min_rad: float
+    pitch_max_rad: float
+    fallen: bool
+    stuck_time_s: float  # sim time the planner reported a local minimum
+    sim_time_s: float  # when the run ended
+    factors: dict[str, float]  # PERTURBED parameter -> factor on its nominal value
+
+    @property
+    def succeeded(self) -> bool:
+        """Reached the target, without a collision or a fall."""
+        return self.reached and not self.fallen and not self.collisions
+
+    def csv_fields(self) -> dict[str, str]:
+        def text(value: Any) -> str:
+            if value is None:
+                return ""
+            return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+        values = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "factors"}
+        values.update({f"{name}_factor": self.factors[name] for name in PERTURBED})
+        return {k: text(v) for k, v in values.items()}
+
+
+COLUMNS = (*(f.name for f in fields(StudyRow) if f.name != "factors"), *(f"{name}_factor" for name in PERTURBED))
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
 def perturbation_factors(seed: int, fraction: float) -> dict[str, float]:
     """The run's factors on PERTURBED, drawn from its seed alone (the same seed, the same robot)."""
     if fraction == 0.0:
@@ -99,31 +136,22 @@ def perturbed_robot(factors: dict[str, float]) -> dict[str, float]:
     return {name: nominal[name] * factors[name] for name in PERTURBED}
 
 
-def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list[dict[str, Any]]:
+def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list[StudyRow]:
     """Runs of the scenario for `seeds` through the batch engine: CSV rows, by seed."""
     scenario = load_scenario(Path(scenario_path))
     factors = [perturbation_factors(seed, perturbation) for seed in seeds]
     params = np.stack([robot_params(perturbed_robot(f)) for f in factors])
     table = run_batch(scenario, seeds, params, planner_rate=PLANNER_RATE, world_rate=WORLD_RATE).table
-    rows = []
-    for seed, run_factors, z in zip(seeds, factors, table, strict=True):
-        reached = not math.isnan(z[Z_REACHED_AT])
-        row = {
-            "seed": seed,
-            "perturbation": perturbation,
-            "reached": reached,
-            "time_to_reach_s": float(z[Z_REACHED_AT]) if reached else None,
-            "collisions": int(z[Z_COLLISIONS]),
-            "min_clearance_m": float(z[Z_MIN_CLEARANCE]) if math.isfinite(z[Z_MIN_CLEARANCE]) else None,
-            "pitch_min_rad": float(z[Z_PITCH_MIN]),
-            "pitch_max_rad": float(z[Z_PITCH_MAX]),
-            "fallen": bool(z[Z_FALLEN]),
-            "stuck_time_s": float(z[Z_STUCK_STEPS]) / PLANNER_RATE,
-            "sim_time_s": float(z[Z_SIM_TIME]),
-        }
-        row.update({f"{name}_factor": run_factors[name] for name in PERTURBED})
-        rows.append(row)
-    return rows
+    return [
+        StudyRow(
+            seed=seed, perturbation=perturbation, reached=not math.isnan(z[Z_REACHED_AT]),
+            time_to_reach_s=_finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]),
+            min_clearance_m=_finite_or_none(z[Z_MIN_CLEARANCE]), pitch_min_rad=float(z[Z_PITCH_MIN]),
+            pitch_max_rad=float(z[Z_PITCH_MAX]), fallen=bool(z[Z_FALLEN]),
+            stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, sim_time_s=float(z[Z_SIM_TIME]), factors=run_factors,
+        )
+        for seed, run_factors, z in zip(seeds, factors, table, strict=True)
+    ]
 
 
 def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any]:
@@ -160,31 +188,15 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[
     trace = run_closed_loop(scenario.duration, reference, robot=robot, scenario=scenario, seed=seed, stop=ended)
     stuck = sum(1 for out in planner_log if out.mode is Mode.STUCK) / PLANNER_RATE
     pitch = trace["pitch"]
-    row = {
-        "seed": seed,
-        "perturbation": perturbation,
-        "reached": world["reached_at"] is not None,
-        "time_to_reach_s": world["reached_at"],
-        "collisions": world["collisions"],
-        "min_clearance_m": world["min_clearance"] if math.isfinite(world["min_clearance"]) else None,
-        "pitch_min_rad": float(pitch.min()),
-        "pitch_max_rad": float(pitch.max()),
-        "fallen": bool(trace.fallen),
-        "stuck_time_s": stuck,
-        "sim_time_s": float(trace.t[-1]),
-    }
-    row.update({f"{name}_factor": factors[name] for name in PERTURBED})
+    row = StudyRow(
+        seed=seed, perturbation=perturbation, reached=world["reached_at"] is not None,
+        time_to_reach_s=world["reached_at"], collisions=world["collisions"],
+        min_clearance_m=_finite_or_none(world["min_clearance"]), pitch_min_rad=float(pitch.min()),
+        pitch_max_rad=float(pitch.max()), fallen=bool(trace.fallen), stuck_time_s=stuck,
+        sim_time_s=float(trace.t[-1]), factors=factors,
+    )
     return row, trace
 
-
-
-def _csv_row(row: dict[str, Any]) -> dict[str, str]:
-    def text(value: Any) -> str:
-        if value is None:
-            return ""
-        return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-    return {k: text(v) for k, v in row.items()}
 
 
 def _ignore_interrupts() -> None:
@@ -219,7 +231,7 @@ def _chunks(study: Study, size: int) -> list[list[int]]:
     return [seeds[k:k + size] for k in range(0, len(seeds), size)]
 
 
-def _scalar_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
+def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
     """Rows as scalar runs finish, at most `workers` at a time (in this process when workers == 1)."""
     path = str(study.scenario)
     if workers == 1:
@@ -245,13 +257,13 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[dict[str, Any]]:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _batch_rows(study: Study, chunk: int) -> Iterator[dict[str, Any]]:
+def _batch_rows(study: Study, chunk: int) -> Iterator[StudyRow]:
     """Rows chunk by chunk through the batch engine in this process (its threads use every core)."""
     for seeds in _chunks(study, chunk):
         yield from run_chunk(str(study.scenario), seeds, study.perturbation)
 
 
-def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[dict[str, Any]]:
+def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[StudyRow]:
     """Rows as the batch chunks finish on a Dask distributed cluster."""
     from distributed import Client, as_completed
 
@@ -272,7 +284,7 @@ def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[dict[str, A
 
 
 def _run_rows(study: Study, engine: str, workers: int, chunk: int, scheduler: str | None
-              ) -> Iterator[dict[str, Any]]:
+              ) -> Iterator[StudyRow]:
     if scheduler is not None:
         return _dask_rows(study, chunk, scheduler)
     if engine == "scalar":
@@ -281,10 +293,10 @@ def _run_rows(study: Study, engine: str, workers: int, chunk: int, scheduler: st
 
 
 def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int = 1, chunk: int = CHUNK,
-              scheduler: str | None = None, progress: bool = True) -> list[dict[str, Any]]:
+              scheduler: str | None = None, progress: bool = True) -> list[StudyRow]:
     """Run every seed, appending each finished row to out_dir/runs.csv; returns the rows by seed."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    rows: list[dict[str, Any]] = []
+    rows: list[StudyRow] = []
     ok = 0
     started = time.monotonic()
     tty = sys.stderr.isatty()
@@ -293,24 +305,24 @@ def run_study(study: Study, out_dir: Path, engine: str = "batch", workers: int =
         writer.writeheader()
         f.flush()
         for row in _run_rows(study, engine, workers, chunk, scheduler):
-            writer.writerow(_csv_row(row))
+            writer.writerow(row.csv_fields())
             f.flush()  # a finished run is kept, whatever stops the study
             rows.append(row)
-            ok += succeeded(row)
+            ok += row.succeeded
             if progress:
                 _progress(len(rows), ok, study.runs, time.monotonic() - started, tty)
     if progress and tty:
         print(file=sys.stderr)
-    rows.sort(key=lambda r: r["seed"])
+    rows.sort(key=lambda r: r.seed)
     _write_csv(out_dir / "runs.csv", rows)  # the whole study, by seed
     return rows
 
 
-def _write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+def _write_csv(path: Path, rows: list[StudyRow]) -> None:
     with path.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
-        writer.writerows(_csv_row(row) for row in rows)
+        writer.writerows(row.csv_fields() for row in rows)
 
 
 def _progress(done: int, ok: int, total: int, elapsed: float, tty: bool) -> None:
@@ -329,12 +341,7 @@ def _progress(done: int, ok: int, total: int, elapsed: float, tty: bool) -> None
         print(line, file=sys.stderr, flush=True)
 
 
-def succeeded(row: dict[str, Any]) -> bool:
-    """Reached the target, without a collision or a fall."""
-    return bool(row["reached"]) and not row["fallen"] and not row["collisions"]
-
-
-def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, engine: str) -> dict[str, Any]:
+def summarise(rows: list[StudyRow], study: Study, wall_s: float, engine: str) -> dict[str, Any]:
     def stats(values: Iterable[float]) -> dict[str, float] | None:
         a = np.array([v for v in values if v is not None], dtype=float)
         if not len(a):
@@ -349,21 +356,21 @@ def summarise(rows: list[dict[str, Any]], study: Study, wall_s: float, engine: s
         "runs_asked": study.runs,
         "first_seed": study.first_seed,
         "perturbation": study.perturbation,
-        "success_rate": sum(succeeded(r) for r in rows) / n if n else None,
-        "reached": sum(bool(r["reached"]) for r in rows),
-        "collided": sum(bool(r["collisions"]) for r in rows),
-        "fallen": sum(bool(r["fallen"]) for r in rows),
-        "stuck": sum(r["stuck_time_s"] > 0 for r in rows),
-        "time_to_reach_s": stats(r["time_to_reach_s"] for r in rows),
-        "min_clearance_m": stats(r["min_clearance_m"] for r in rows),
-        "pitch_abs_max_rad": stats(max(abs(r["pitch_min_rad"]), abs(r["pitch_max_rad"])) for r in rows),
+        "success_rate": sum(r.succeeded for r in rows) / n if n else None,
+        "reached": sum(r.reached for r in rows),
+        "collided": sum(bool(r.collisions) for r in rows),
+        "fallen": sum(r.fallen for r in rows),
+        "stuck": sum(r.stuck_time_s > 0 for r in rows),
+        "time_to_reach_s": stats(r.time_to_reach_s for r in rows),
+        "min_clearance_m": stats(r.min_clearance_m for r in rows),
+        "pitch_abs_max_rad": stats(max(abs(r.pitch_min_rad), abs(r.pitch_max_rad)) for r in rows),
         "wall_time_s": wall_s,
         "engine": engine,
         "cores": os.cpu_count(),
     }
 
 
-def summary_figure(rows: list[dict[str, Any]], summary: dict[str, Any], path: Path) -> None:
+def summary_figure(rows: list[StudyRow], summary: dict[str, Any], path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -377,11 +384,11 @@ def summary_figure(rows: list[dict[str, Any]], summary: dict[str, Any], path: Pa
     axes[0].set_ylabel("% of runs")
     axes[0].set_ylim(0, 105)
     axes[0].set_title(f"success {100.0 * summary['success_rate']:.1f} % of {n} runs")
-    reach = [r["time_to_reach_s"] for r in rows if r["time_to_reach_s"] is not None]
+    reach = [r.time_to_reach_s for r in rows if r.time_to_reach_s is not None]
     axes[1].hist(reach, bins=30, color="tab:blue")
     axes[1].set_xlabel("time to reach [s]")
     axes[1].set_ylabel("runs")
-    clearance = [r["min_clearance_m"] for r in rows if r["min_clearance_m"] is not None]
+    clearance = [r.min_clearance_m for r in rows if r.min_clearance_m is not None]
     axes[2].hist(clearance, bins=30, color="tab:purple")
     axes[2].axvline(0.0, color="tab:red", lw=1)
     axes[2].set_xlabel("min clearance to an obstacle [m]")

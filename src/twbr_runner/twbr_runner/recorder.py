@@ -6,8 +6,9 @@
 Topics named with their type are subscribed at once, before any publisher exists (so nothing published
 after discovery is missed); others are subscribed when they appear in the graph (polled every 0.1 s),
 with the reliability and durability their publishers offer, as rosbag2 does. Each new publisher match
-is logged ("matched N publisher(s) on /topic"), which is what a runner waits for. Messages are stored as the
-CDR bytes received, stamped with the wall-clock time of receipt. SIGINT/SIGTERM close the bag cleanly.
+is logged ("matched N publisher(s) on /topic") and published on ~/status (twbr_msgs/RecorderStatus,
+latched), which is what a runner waits for. Messages are stored as the CDR bytes received, stamped with
+the wall-clock time of receipt. SIGINT/SIGTERM close the bag cleanly.
 """
 
 from __future__ import annotations
@@ -26,10 +27,12 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.utilities import remove_ros_args
 
 from twbr_common.executor import spin_until_shutdown
+from twbr_msgs.msg import RecorderStatus
 from twbr_runner.bag_writer import BagWriter, qos_profile, typestore_with
 
-# Graph bookkeeping topics rosbag2 skips by default too.
+# Graph bookkeeping topics rosbag2 skips by default too, and recorders' own status.
 SKIPPED = ("/parameter_events", "/rosout")
+STATUS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def _share(package: str) -> Path:
@@ -51,12 +54,16 @@ class Recorder(Node):
         self._recorded: dict[str, object] = {}
         self._matched: dict[str, int] = {}
         self._type_conflicts: set[tuple[str, str]] = set()
+        self._status = self.create_publisher(RecorderStatus, "~/status", STATUS_QOS)
+        self._status_topic = self.resolve_topic_name("~/status")
+        self._reported: tuple | None = None
         for topic, msgtype in self.wanted.items():
             if msgtype:
                 self._subscribe(topic, msgtype, QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
         self.create_timer(0.05, self._discover)
         self.get_logger().info(f"recording to {output}: {len(self._recorded)} topics subscribed"
                                f"{', and any others that appear' if record_all else ''}")
+        self._publish_status()
 
     def _subscribe(self, topic: str, msgtype: str, qos: QoSProfile) -> None:
         if msgtype not in self.writer.typestore.types:
@@ -78,6 +85,21 @@ class Recorder(Node):
             if count > self._matched.get(topic, 0):
                 self.get_logger().info(f"matched {count} publisher(s) on {topic}")
             self._matched[topic] = count
+        self._publish_status()
+
+    def _publish_status(self) -> None:
+        """~/status, when what is recorded or matched changed since the last report."""
+        topics = sorted(t for t, sub in self._recorded.items() if sub is not None)
+        counts = [self._matched.get(t, 0) for t in topics]
+        if (topics, counts) == self._reported:
+            return
+        self._reported = (topics, counts)
+        msg = RecorderStatus()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.bag = str(self.writer.path)
+        msg.topics = topics
+        msg.matched_publishers = counts
+        self._status.publish(msg)
 
     def _report_types(self, topic: str, types: list[str]) -> None:
         """A publisher of another type on a recorded topic: its messages are not in the bag. Say so, once."""
@@ -95,7 +117,7 @@ class Recorder(Node):
         self._report_matches()
         for topic, types in self.get_topic_names_and_types():
             self._report_types(topic, types)
-            if topic in self._recorded or topic in SKIPPED:
+            if topic in self._recorded or topic in SKIPPED or topic == self._status_topic:
                 continue
             if not (self.record_all or topic in self.wanted):
                 continue

@@ -21,7 +21,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -126,15 +126,17 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
 
 
 class Progress:
-    """Sim time from sim_status (and the end condition from world_status), via a small rclpy node."""
+    """The runner's view of the graph, via a small rclpy node: the recorder's status (what it has matched),
+    sim time from sim_status and the end condition from world_status."""
 
     def __init__(self, domain: int) -> None:
         import rclpy
         from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from rclpy.signals import SignalHandlerOptions
 
         from twbr_common.ros_io import WORLD_QOS, stamp_seconds
-        from twbr_msgs.msg import SimStatus, WorldStatus
+        from twbr_msgs.msg import RecorderStatus, SimStatus, WorldStatus
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
@@ -146,6 +148,7 @@ class Progress:
         self.sim_time = 0.0
         self.fallen = False
         self.target_reached = False
+        self.recorder_matched: dict[str, int] | None = None  # None until the recorder has reported
 
         def on_status(msg: SimStatus) -> None:
             self.sim_time = max(self.sim_time, stamp_seconds(msg.header.stamp))
@@ -154,9 +157,33 @@ class Progress:
         def on_world(msg: WorldStatus) -> None:
             self.target_reached |= msg.target_reached
 
+        def on_recorder(msg: RecorderStatus) -> None:
+            self.recorder_matched = dict(zip(msg.topics, msg.matched_publishers, strict=True))
+
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
         with _SIGNALS.deferred():
             self.node.create_subscription(SimStatus, "sim_status", on_status, WORLD_QOS)
             self.node.create_subscription(WorldStatus, "world_status", on_world, WORLD_QOS)
+            self.node.create_subscription(RecorderStatus, "/recorder/status", on_recorder, latched)
+
+    def wait_for_recorder(self, recorder: NodeProcess, topics: Iterable[str], timeout: float) -> None:
+        """Until the recorder reports (ready), with a publisher matched on each of `topics`."""
+        topics = list(topics)
+        deadline = time.monotonic() + timeout
+
+        def ready() -> bool:
+            m = self.recorder_matched
+            return m is not None and all(m.get(t, 0) > 0 for t in topics)
+
+        while not ready():
+            if not recorder.running:
+                raise RuntimeError(f"recorder exited with code {recorder.proc.returncode}:\n{_tail(recorder.output)}")
+            if time.monotonic() > deadline:
+                unmatched = [t for t in topics if (self.recorder_matched or {}).get(t, 0) == 0]
+                raise TimeoutError(f"the recorder did not report {'matching ' + ', '.join(unmatched) if topics else 'ready'}"
+                                   f" within {timeout:g} s")
+            self.spin(0.05)
 
     def neighbours(self, listen_s: float) -> list[str]:
         """Nodes of another twbr graph, and publishers on the contract's topics, already on this domain."""
@@ -268,12 +295,11 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             if spec.label == "sim":
                 # Discovery between two processes can take seconds: start the clock only once the
                 # recorder hears every other source, so the bag has the run from t = 0.
-                for topic in (t for s in nodes for t in s.recorded):
-                    _wait_for_line(procs["recorder"], f"publisher(s) on {topic}", 30.0)
+                progress.wait_for_recorder(procs["recorder"], [t for s in nodes for t in s.recorded], 30.0)
             procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, env, log_dir, spec.label,
                                            spec.args, spec.niceness)
             if spec.label == "recorder":
-                _wait_for_line(procs["recorder"], "recording to", 20.0)
+                progress.wait_for_recorder(procs["recorder"], [], 20.0)
         sim = procs["sim"]
         tty = sys.stdout.isatty()
         last_print = time.monotonic()
@@ -383,17 +409,6 @@ def summary(m: dict[str, Any], run_dir: Path, figures: list[Path]) -> str:
 
 def _tail(text: str, lines: int = 15) -> str:
     return "\n".join(text.strip().splitlines()[-lines:])
-
-
-def _wait_for_line(proc: NodeProcess, needle: str, timeout: float) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if needle in proc.output:
-            return
-        if not proc.running:
-            raise RuntimeError(f"{proc.name} exited with code {proc.proc.returncode}:\n{_tail(proc.output)}")
-        time.sleep(0.05)
-    raise TimeoutError(f"{proc.name} did not report '{needle}' within {timeout:g} s")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,7 +3,9 @@
 Subscribes wheel_torque_cmd; publishes clock, odom, imu, joint_states, /tf, sim_status and, hosting the
 world, target, obstacles, world_status and world_markers. In lockstep it publishes the state at step k
 and integrates to k+1 only once the command stamped with step k's time has arrived (or a wall-clock
-timeout has passed, which it counts); in realtime it steps on a wall-clock timer.
+timeout has passed, which it counts); in realtime it steps on a wall-clock timer. What to wait for, when
+to step and what is due live in `twbr_sim.stepping` (no ROS, unit-tested); this module turns them into
+messages.
 """
 
 from __future__ import annotations
@@ -33,7 +35,6 @@ from twbr_common.ros_io import (
     to_stamp,
 )
 from twbr_common.ros_params import declare, run_node
-from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
@@ -41,6 +42,7 @@ from twbr_sim.run_report import LatencyRecord, rates_text
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
+from twbr_sim.stepping import LockstepExchange, Publications, RealtimeTicks, TimeoutAction
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
@@ -62,8 +64,6 @@ class SimNode(Node):
         self._frame_odom = cfg["odom_frame"]
         self._frame_base = cfg["base_frame"]
         self._step_ns = round(1e9 / cfg["physics_rate"])
-        self._pending_ns: int | None = None
-        self._matched = False
         self._commands_received = 0
         self._status_flags: tuple | None = None
         self._published_at: float | None = None
@@ -90,21 +90,18 @@ class SimNode(Node):
         # Lockstep with the planner too: it is not in the torque loop, and a starved planner process would
         # otherwise fall behind a simulator running faster than real time (its cmd_vel then goes stale).
         self._last_assessment = None
-        self._planner_every = 0
-        self._planner_ns: int | None = None
+        planner_every = 0
         if self.lockstep and cfg["lockstep_planner_rate"] > 0.0:
-            self._planner_every = steps_per_publish(cfg["physics_rate"], cfg["lockstep_planner_rate"])
-            if self._planner_every % self.sim.steps_per_publish:
+            planner_every = steps_per_publish(cfg["physics_rate"], cfg["lockstep_planner_rate"])
+            if planner_every % self.sim.steps_per_publish:
                 raise ConfigError(
                     f"invalid parameter 'lockstep_planner_rate' = {cfg['lockstep_planner_rate']:g}: must divide"
                     f" publish_rate = {cfg['publish_rate']:g} Hz into a whole number of states"
                 )
             self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
-        self._tf_due = Decimator(cfg["tf_rate"])
-        self._clock_due = Decimator(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"])
-        self._world_due = Decimator(cfg["world_rate"])
-        self._status_due = Decimator(cfg["world_rate"])
-        self._marker_due = Decimator(cfg["marker_rate"])
+        self.exchange = LockstepExchange(planner_every, cfg["wait_for_first_command"])
+        self.publications = Publications(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"],
+                                         cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"])
         self.get_logger().info(
             f"{cfg['mode']} simulation at {cfg['physics_rate']:g} Hz, state every"
             f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
@@ -126,25 +123,12 @@ class SimNode(Node):
                 f"wheel_torque_cmd past the motor limit {self.sim.torque_limit:g} N*m: clipped",
                 throttle_duration_sec=1.0,
             )
-        if self._pending_ns is not None and stamp_ns(msg.header.stamp) == self._pending_ns:
-            if not self._matched and self._published_at is not None:
-                # State published -> its command received: the whole control loop over DDS.
-                self._latencies.add(time.perf_counter() - self._published_at)
-            self._matched = True
+        if self.exchange.command(stamp_ns(msg.header.stamp)) and self._published_at is not None:
+            # State published -> its command received: the whole control loop over DDS.
+            self._latencies.add(time.perf_counter() - self._published_at)
 
     def _on_planner_state(self, msg: PlannerState) -> None:
-        # Only the answer to the pending state counts: any other (a late one, a stray publisher) must not
-        # overwrite it, or the simulator would wait for an answer it already had.
-        if stamp_ns(msg.header.stamp) == self._pending_ns:
-            self._planner_ns = self._pending_ns
-
-    def _answered(self) -> bool:
-        """The command for the pending state arrived, and the planner's output too when it is due."""
-        if not self._matched:
-            return False
-        if self._planner_every and self.sim.step_count % self._planner_every == 0:
-            return self._planner_ns == self._pending_ns
-        return True
+        self.exchange.planner(stamp_ns(msg.header.stamp))
 
     # --- outputs ------------------------------------------------------------------------------
     def publish_control_state(self) -> None:
@@ -162,8 +146,8 @@ class SimNode(Node):
         now_ns = sim.step_count * self._step_ns
         stamp = to_stamp(now_ns)
         self._clock_msg.clock = stamp
-        clock_due = self._clock_due.due(sim.time)
-        world = self.world_messages(stamp) if self.hosting_world and self._world_due.due(sim.time) else []
+        due = self.publications.with_state(sim.time, self.hosting_world)
+        world = self.world_messages(stamp) if due.world else []
         s = sim.state
         odom = self._odom_msg
         odom.header.stamp = stamp
@@ -182,7 +166,7 @@ class SimNode(Node):
         av, la = imu.angular_velocity, imu.linear_acceleration
         av.x, av.y, av.z = reading.angular_velocity
         la.x, la.y, la.z = reading.linear_acceleration
-        self._prepared = (now_ns, clock_due, world)
+        self._prepared = (now_ns, due.clock, world)
 
     def send_control_state(self, again: bool = False) -> None:
         """What the controller and the planner act on, first, so their answers are not held up: the clock,
@@ -198,8 +182,8 @@ class SimNode(Node):
                 publisher.publish(msg)
         self.pub_odom.publish(self._odom_msg)
         self.pub_imu.publish(self._imu_msg)
-        self._pending_ns = now_ns
-        self._matched = False  # a new state: its command is awaited (lockstep) and its latency measured (both)
+        # A new state: its command is awaited (lockstep) and its latency measured (both).
+        self.exchange.offered(now_ns, self.sim.step_count)
 
     def _control_messages(self) -> tuple[Clock, Odometry, Imu]:
         """The clock, odom and imu messages every state refills: publish() serializes at once, and building
@@ -222,7 +206,7 @@ class SimNode(Node):
     def publish_telemetry(self) -> None:
         """Everything else about the state just published: joints, tf, status, markers."""
         sim = self.sim
-        stamp = to_stamp(self._pending_ns)
+        stamp = to_stamp(self.exchange.pending_ns)
         s = sim.state
         joints = JointState()
         joints.header.stamp = stamp
@@ -232,8 +216,9 @@ class SimNode(Node):
         joints.effort = list(sim.wheel_torques())
         self.pub_joints.publish(joints)
 
-        t = sim.time
-        if self._tf_due.due(t):
+        flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
+        due = self.publications.with_telemetry(sim.time, flags != self._status_flags, self.hosting_world)
+        if due.tf:
             tf = TransformStamped()
             tf.header.stamp = stamp
             tf.header.frame_id = self._frame_odom
@@ -242,13 +227,12 @@ class SimNode(Node):
             tr.x, tr.y, tr.z = pose.position.x, pose.position.y, pose.position.z
             tf.transform.rotation = pose.orientation
             self.pub_tf.publish(TFMessage(transforms=[tf]))
-        flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
         if self._status_flags is not None and flags[2] != self._status_flags[2]:
             self._report_command_stale(sim.command_stale)
-        if self._status_due.due(t) or flags != self._status_flags:
+        if due.status:
             self._status_flags = flags
             self.pub_status.publish(self.status_message(stamp))
-        if self.hosting_world and self._marker_due.due(t):
+        if due.markers:
             world = sim.world
             self.pub_markers.publish(
                 world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
@@ -345,19 +329,19 @@ class SimNode(Node):
 
     def _run_lockstep(self) -> None:
         executor = self._executor
+        exchange = self.exchange
         timeout = self.cfg["lockstep_timeout"]
-        waiting_first = self.cfg["wait_for_first_command"]
         self.publish_control_state()
         while self.context.ok() and not self._finished():
             deadline = time.monotonic() + timeout
-            while not self._answered() and self.context.ok():
+            while not exchange.answered() and self.context.ok():
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0:
                     break
                 executor.spin_once(timeout_sec=remaining)
-            if not self._answered():
-                missing = "wheel_torque_cmd" if not self._matched else "planner_state"
-                if waiting_first and self.sim.step_count == 0:
+            if not exchange.answered():
+                missing = exchange.missing().value
+                if exchange.timed_out() is TimeoutAction.OFFER_AGAIN:
                     self.send_control_state(again=True)  # nobody has answered yet: offer it again
                     self.get_logger().warning(
                         f"holding t = 0: no {missing} for the first state yet (is every node of the graph"
@@ -369,7 +353,7 @@ class SimNode(Node):
                     f" within {timeout:g} s wall; stepping on ({self.sim.lockstep_timeouts} so far)",
                     throttle_duration_sec=1.0,
                 )
-            waiting_first = False
+            exchange.stepping()
             # Telemetry once the state is answered: it no longer delays the handling of the answer.
             self.publish_telemetry()
             self._step()
@@ -378,48 +362,35 @@ class SimNode(Node):
 
     def _run_realtime(self) -> None:
         """Each period: the state at its tick, then the controller's answer, then telemetry and the next
-        state, prepared in the slack.
-
-        A real driver serves its control loop first: telemetry (markers are milliseconds of Python at
-        5 Hz) published before the answer is handled would delay it. It waits for the answer at most
-        half a period. Once the answer is in, the step to the next tick uses it whenever it is
-        integrated, so the next state is stepped and filled at once and only sent at its tick; without
-        an answer by then, the step waits for the tick, as a late command still counts.
-        """
-        period = 1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"])
+        state, prepared in the slack (stepping.RealtimeTicks)."""
         executor = self._executor
+        exchange = self.exchange
         self.publish_control_state()
-        telemetry_by: float | None = time.monotonic() + 0.5 * period
-        next_tick = time.monotonic() + period
-        prepared = False
+        ticks = RealtimeTicks(1.0 / (self.cfg["publish_rate"] * self.cfg["real_time_factor"]), time.monotonic())
         while self.context.ok():
-            if telemetry_by is not None and (self._matched or time.monotonic() >= telemetry_by):
-                telemetry_by = None
+            if ticks.telemetry_due(exchange.command_matched, time.monotonic()):
+                ticks.telemetry_done()
                 self.publish_telemetry()
                 if self._finished():
                     break
-                if self._matched:
+                if exchange.command_matched:
                     self._step()
                     self.prepare_control_state()
-                    prepared = True
-            wake = next_tick if telemetry_by is None else telemetry_by
-            executor.spin_once(timeout_sec=max(0.0, wake - time.monotonic()))
+                    ticks.prepared = True
+            executor.spin_once(timeout_sec=max(0.0, ticks.wake_at() - time.monotonic()))
             now = time.monotonic()
-            if now >= next_tick:
-                if telemetry_by is not None:
-                    telemetry_by = None
+            if ticks.tick_due(now):
+                if ticks.telemetry_by is not None:
+                    ticks.telemetry_done()
                     self.publish_telemetry()
                     if self._finished():
                         break
-                if not prepared:
+                if not ticks.prepared:
                     self._step()
                     self.prepare_control_state()
                 self.send_control_state()
-                prepared = False
-                telemetry_by = now + 0.5 * period
-                # Keep the schedule, but never try to catch up more than one period after a stall.
-                next_tick = max(next_tick + period, now - period)
-        if telemetry_by is not None:
+                ticks.sent(now)
+        if ticks.telemetry_by is not None:
             self.publish_telemetry()
 
 

@@ -1,0 +1,150 @@
+"""How sim_node steps, without ROS: what lockstep waits for, what realtime does at each tick, what is due.
+
+sim_node is a thin adapter around these: it spins its executor until `LockstepExchange.answered` or the
+wall-clock deadline, and asks `RealtimeTicks` when to publish telemetry, when to step and when to send;
+`Publications` says which decimated topics go out with a state. Times here are plain floats: sim time [s]
+for what is due, `time.monotonic()` [s] for the realtime schedule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from twbr_common.timing import Decimator
+
+
+class Missing(Enum):
+    COMMAND = "wheel_torque_cmd"
+    PLANNER = "planner_state"
+
+
+class TimeoutAction(Enum):
+    OFFER_AGAIN = "offer_again"  # nobody has answered the first state yet: hold t = 0 and offer it again
+    STEP_ON = "step_on"  # a lockstep timeout: counted, and the simulator steps without the answer
+
+
+class LockstepExchange:
+    """The answers the pending state awaits: the command stamped with it, and at every `planner_every`-th
+    physics step the planner's output stamped with it too (0: the planner is not waited for).
+
+    Only an answer stamped with the pending state counts: a late one, or one from a stray publisher,
+    never stands in for the answer to the state the simulator holds.
+    """
+
+    def __init__(self, planner_every: int = 0, wait_for_first_command: bool = True) -> None:
+        self.planner_every = planner_every
+        self.waiting_first = wait_for_first_command
+        self.pending_ns: int | None = None
+        self._step_count = 0
+        self.command_matched = False
+        self._planner_ns: int | None = None
+
+    def offered(self, stamp_ns: int, step_count: int) -> None:
+        """A state stamped `stamp_ns` at physics step `step_count` went out: its answers are awaited."""
+        self.pending_ns = stamp_ns
+        self._step_count = step_count
+        self.command_matched = False
+
+    def command(self, stamp_ns: int) -> bool:
+        """An admitted command stamped `stamp_ns`; true when it is the first answer to the pending state."""
+        if self.pending_ns is None or stamp_ns != self.pending_ns or self.command_matched:
+            return False
+        self.command_matched = True
+        return True
+
+    def planner(self, stamp_ns: int) -> None:
+        if stamp_ns == self.pending_ns:
+            self._planner_ns = stamp_ns
+
+    @property
+    def planner_due(self) -> bool:
+        return bool(self.planner_every) and self._step_count % self.planner_every == 0
+
+    def answered(self) -> bool:
+        if not self.command_matched:
+            return False
+        return self._planner_ns == self.pending_ns if self.planner_due else True
+
+    def missing(self) -> Missing:
+        return Missing.COMMAND if not self.command_matched else Missing.PLANNER
+
+    def timed_out(self) -> TimeoutAction:
+        """The wall-clock wait ran out without the answers: what to do."""
+        if self.waiting_first and self._step_count == 0:
+            return TimeoutAction.OFFER_AGAIN
+        return TimeoutAction.STEP_ON
+
+    def stepping(self) -> None:
+        """The simulator steps past the pending state: from now on a missing answer is a timeout."""
+        self.waiting_first = False
+
+
+class RealtimeTicks:
+    """The realtime loop's schedule: the state goes out at each tick, telemetry once the answer is in (at
+    most half a period later), and the next state is stepped and filled as soon as the answer is in, to
+    be sent at its tick.
+
+    A real driver serves its control loop first: telemetry published before the answer is handled would
+    delay it. Without an answer by the tick, the step waits for the tick (a late command still counts).
+    After a stall the ticks keep their schedule but never try to catch up more than one period.
+    """
+
+    def __init__(self, period: float, now: float) -> None:
+        self.period = period
+        self.telemetry_by: float | None = now + 0.5 * period
+        self.next_tick = now + period
+        self.prepared = False
+
+    def telemetry_due(self, answered: bool, now: float) -> bool:
+        return self.telemetry_by is not None and (answered or now >= self.telemetry_by)
+
+    def telemetry_done(self) -> None:
+        self.telemetry_by = None
+
+    def wake_at(self) -> float:
+        """When the loop must look again (it wakes earlier for any message)."""
+        return self.next_tick if self.telemetry_by is None else self.telemetry_by
+
+    def tick_due(self, now: float) -> bool:
+        return now >= self.next_tick
+
+    def sent(self, now: float) -> None:
+        """The state went out at `now`: telemetry by half a period later, the next tick one period on."""
+        self.prepared = False
+        self.telemetry_by = now + 0.5 * self.period
+        self.next_tick = max(self.next_tick + self.period, now - self.period)
+
+
+@dataclass(frozen=True)
+class StateTopics:
+    clock: bool
+    world: bool
+
+
+@dataclass(frozen=True)
+class TelemetryTopics:
+    tf: bool
+    status: bool
+    markers: bool
+
+
+class Publications:
+    """Which decimated topics go out at sim time t: /clock and the world with the state, /tf, sim_status
+    (also whenever a flag changes) and the markers with telemetry."""
+
+    def __init__(self, clock_rate: float, world_rate: float, tf_rate: float, marker_rate: float) -> None:
+        self._clock = Decimator(clock_rate)
+        self._world = Decimator(world_rate)
+        self._tf = Decimator(tf_rate)
+        self._status = Decimator(world_rate)
+        self._markers = Decimator(marker_rate)
+
+    def with_state(self, t: float, hosting_world: bool) -> StateTopics:
+        clock = self._clock.due(t)
+        return StateTopics(clock, hosting_world and self._world.due(t))
+
+    def with_telemetry(self, t: float, flags_changed: bool, hosting_world: bool) -> TelemetryTopics:
+        tf = self._tf.due(t)
+        status = self._status.due(t) or flags_changed
+        return TelemetryTopics(tf, status, hosting_world and self._markers.due(t))
