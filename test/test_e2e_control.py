@@ -66,7 +66,7 @@ def test_step_scenario_through_the_runner_meets_the_paper_from_the_bag(tmp_path,
     assert metrics["lockstep_timeouts"] == 0
 
     # The metrics file says what the bag says.
-    again = compute_metrics(series_from_messages(messages), "step", 0, metrics["wall_time_s"])
+    again = compute_metrics(series_from_messages(messages), "step", 0, metrics["wall_time_s"]).as_json()
     for key in ("sim_time_s", "pitch_max_rad", "v_rmse", "max_torque_nm", "velocity_step"):
         assert again[key] == metrics[key], key
     for key in ("scenario", "seed", "sim_time_s", "wall_time_s", "real_time_factor", "fallen", "pitch_min_rad",

@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import numpy as np
 
-from twbr_batch.response import settle_time, step_response
+from twbr_batch.response import StepResponse, settle_time, step_response
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT, InputGuard, Verdict
 
@@ -157,18 +157,91 @@ def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def navigation_metrics(s: RunSeries) -> dict[str, Any]:
+@dataclass
+class NavigationMetrics:
+    """Outcome of a run with a world (docs/metrics.md); the last two only with a planner."""
+
+    reached: bool
+    time_to_reach_s: float | None
+    collisions: int | None
+    min_clearance_m: float | None  # sampled at the world rate
+    final_target_distance_m: float | None
+    pitch_by_mode: dict[str, dict[str, float]] | None = None  # mode -> pitch bounds [rad] and time in it [s]
+    stuck_time_s: float | None = None
+
+
+@dataclass
+class BagSummary:
+    path: str
+    storage: str
+    message_count: int
+
+
+@dataclass
+class RunMetrics:
+    """A run's figures of merit: what metrics.json holds (docs/metrics.md), flat, by `as_json`."""
+
+    scenario: str
+    seed: int
+    sim_time_s: float
+    wall_time_s: float  # the simulator's stepping
+    real_time_factor: float | None
+    fallen: bool
+    pitch_min_rad: float
+    pitch_max_rad: float
+    pitch_final_rad: float
+    pitch_band_rad: float
+    pitch_settle_time_s: float | None
+    pitch_after_settle_min_rad: float | None
+    pitch_after_settle_max_rad: float | None
+    v_rmse: float
+    w_rmse: float
+    max_torque_nm: float
+    max_delivered_torque_nm: float
+    torque_saturated_samples: int
+    cmd_vel_stale_samples: int
+    lockstep_timeouts: int | None
+    commands_rejected: int | None
+    control_samples: int
+    messages: dict[str, int]
+    messages_refused: dict[str, int]
+    transient_s: float
+    pitch_after_transient_min_rad: float | None
+    pitch_after_transient_max_rad: float | None
+    # The first step of each reference, for scripted scenarios (a name -> None: no step in the run).
+    steps: dict[str, StepResponse | None] = field(default_factory=dict)
+    navigation: NavigationMetrics | None = None
+    # What the runner adds: why the run ended, its whole wall time, the bag.
+    ended_by: str | None = None
+    run_wall_time_s: float | None = None
+    bag: BagSummary | None = None
+
+    def as_json(self) -> dict[str, Any]:
+        out = {f.name: getattr(self, f.name) for f in fields(self)
+               if f.name not in ("steps", "navigation", "ended_by", "run_wall_time_s", "bag")}
+        out.update({name: r.as_dict() if r is not None else None for name, r in self.steps.items()})
+        if self.navigation is not None:
+            out.update({k: v for k, v in asdict(self.navigation).items()
+                        if v is not None or k not in ("pitch_by_mode", "stuck_time_s")})
+        for name in ("ended_by", "run_wall_time_s", "bag"):
+            value = getattr(self, name)
+            if value is not None:
+                out[name] = asdict(value) if name == "bag" else value
+        return out
+
+
+def navigation_metrics(s: RunSeries) -> NavigationMetrics:
     """Outcome of a run with a world: reached, when, collisions, clearance, pitch per planner mode."""
     status = s.world_status
     reached = [m for m in status if m.target_reached]
     clearances = [m.clearance for m in status if math.isfinite(m.clearance)]
-    out: dict[str, Any] = {
-        "reached": bool(reached),
-        "time_to_reach_s": stamp_of(reached[0]) if reached else None,
-        "collisions": int(status[-1].collision_count) if status else None,
-        "min_clearance_m": min(clearances) if clearances else None,  # sampled at the world rate
-        "final_target_distance_m": float(status[-1].target_distance) if status else None,
-    }
+    out = NavigationMetrics(
+        reached=bool(reached),
+        time_to_reach_s=stamp_of(reached[0]) if reached else None,
+        collisions=int(status[-1].collision_count) if status else None,
+        min_clearance_m=min(clearances) if clearances else None,
+        final_target_distance_m=float(status[-1].target_distance) if status else None,
+    )
     if s.planner:
         t = np.array([stamp_of(m) for m in s.planner])
         modes = np.array([m.mode for m in s.planner])
@@ -181,13 +254,13 @@ def navigation_metrics(s: RunSeries) -> dict[str, Any]:
                 per_mode[mode] = {"pitch_min_rad": float(s.pitch[mask].min()),
                                   "pitch_max_rad": float(s.pitch[mask].max()),
                                   "time_s": float(mask.sum() * np.median(np.diff(s.odom_t)))}
-        out["pitch_by_mode"] = per_mode
-        out["stuck_time_s"] = per_mode.get("stuck", {}).get("time_s", 0.0)
+        out.pitch_by_mode = per_mode
+        out.stuck_time_s = per_mode.get("stuck", {}).get("time_s", 0.0)
     return out
 
 
 def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
-                    step_responses: bool = True) -> dict[str, Any]:
+                    step_responses: bool = True) -> RunMetrics:
     if len(s.control_t) == 0 or len(s.odom_t) == 0:
         raise ValueError("the recording has no controller_state or no odom: nothing to measure")
     c = s.control
@@ -199,44 +272,43 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
     fallen = bool(c["fallen"].any()) or any(m.fallen for m in s.sim_status)
     commanded = max(float(np.abs(c["left_torque"]).max()), float(np.abs(c["right_torque"]).max()))
     delivered = float(np.abs(s.wheel_effort).max()) if len(s.wheel_effort) else math.nan
-    metrics: dict[str, Any] = {
-        "scenario": scenario,
-        "seed": seed,
-        "sim_time_s": sim_time,
-        "wall_time_s": wall_time_s,
-        "real_time_factor": sim_time / wall_time_s if wall_time_s > 0 else None,
-        "fallen": fallen,
-        "pitch_min_rad": float(s.pitch.min()),
-        "pitch_max_rad": float(s.pitch.max()),
-        "pitch_final_rad": final_pitch,
-        "pitch_band_rad": PITCH_BAND,
-        "pitch_settle_time_s": _finite(pitch_settle),
-        "pitch_after_settle_min_rad": float(s.pitch[settled].min()) if settled.any() else None,
-        "pitch_after_settle_max_rad": float(s.pitch[settled].max()) if settled.any() else None,
-        "v_rmse": _rms(c["velocity"] - c["velocity_ref"]),
-        "w_rmse": _rms(c["yaw_rate"] - c["yaw_rate_ref"]),
-        "max_torque_nm": commanded,
-        "max_delivered_torque_nm": delivered,
-        "torque_saturated_samples": int(c["torque_saturated"].sum()),
-        "cmd_vel_stale_samples": int(c["cmd_vel_stale"].sum()),
-        "lockstep_timeouts": int(last_status.lockstep_timeouts) if last_status else None,
-        "commands_rejected": int(last_status.commands_rejected) if last_status else None,
-        "control_samples": len(s.control_t),
-        "messages": s.counts,
-        "messages_refused": s.refused,
-    }
     # After the first transient: from TRANSIENT_S after the first non-zero reference to the end.
     moving = np.flatnonzero((np.abs(c["velocity_ref"]) > 1e-9) | (np.abs(c["yaw_rate_ref"]) > 1e-9))
     start = (s.control_t[moving[0]] if len(moving) else 0.0) + TRANSIENT_S
     late = s.odom_t >= start
-    metrics["transient_s"] = TRANSIENT_S
-    metrics["pitch_after_transient_min_rad"] = float(s.pitch[late].min()) if late.any() else None
-    metrics["pitch_after_transient_max_rad"] = float(s.pitch[late].max()) if late.any() else None
+    steps = {}
     if step_responses:
         for name, signal, ref in (("velocity_step", "velocity", "velocity_ref"),
                                   ("yaw_rate_step", "yaw_rate", "yaw_rate_ref")):
-            response = step_response(s.control_t, c[signal], c[ref])
-            metrics[name] = response.as_dict() if response is not None else None
-    if s.world_status:
-        metrics.update(navigation_metrics(s))
-    return metrics
+            steps[name] = step_response(s.control_t, c[signal], c[ref])
+    return RunMetrics(
+        scenario=scenario,
+        seed=seed,
+        sim_time_s=sim_time,
+        wall_time_s=wall_time_s,
+        real_time_factor=sim_time / wall_time_s if wall_time_s > 0 else None,
+        fallen=fallen,
+        pitch_min_rad=float(s.pitch.min()),
+        pitch_max_rad=float(s.pitch.max()),
+        pitch_final_rad=final_pitch,
+        pitch_band_rad=PITCH_BAND,
+        pitch_settle_time_s=_finite(pitch_settle),
+        pitch_after_settle_min_rad=float(s.pitch[settled].min()) if settled.any() else None,
+        pitch_after_settle_max_rad=float(s.pitch[settled].max()) if settled.any() else None,
+        v_rmse=_rms(c["velocity"] - c["velocity_ref"]),
+        w_rmse=_rms(c["yaw_rate"] - c["yaw_rate_ref"]),
+        max_torque_nm=commanded,
+        max_delivered_torque_nm=delivered,
+        torque_saturated_samples=int(c["torque_saturated"].sum()),
+        cmd_vel_stale_samples=int(c["cmd_vel_stale"].sum()),
+        lockstep_timeouts=int(last_status.lockstep_timeouts) if last_status else None,
+        commands_rejected=int(last_status.commands_rejected) if last_status else None,
+        control_samples=len(s.control_t),
+        messages=s.counts,
+        messages_refused=s.refused,
+        transient_s=TRANSIENT_S,
+        pitch_after_transient_min_rad=float(s.pitch[late].min()) if late.any() else None,
+        pitch_after_transient_max_rad=float(s.pitch[late].max()) if late.any() else None,
+        steps=steps,
+        navigation=navigation_metrics(s) if s.world_status else None,
+    )

@@ -34,7 +34,7 @@ from twbr_common.paths import config_dir
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
-from twbr_runner.metrics import MEASURED_TOPICS, compute_metrics, series_from_messages
+from twbr_runner.metrics import MEASURED_TOPICS, BagSummary, RunMetrics, compute_metrics, series_from_messages
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
 from twbr_sim.scenario import Scenario, load_scenario
@@ -350,7 +350,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
 
 
 def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: float | None, total_wall: float,
-            reason: str, opts: RunOptions) -> dict[str, Any] | None:
+            reason: str, opts: RunOptions) -> RunMetrics | None:
     """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
     try:
         info = bag_info(bag_dir)
@@ -360,12 +360,11 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     except Exception as e:  # whatever the recording lacks: report it, keep the bag
         _say(opts, f"run_scenario: cannot measure the recording in {bag_dir}: {e}")
         return None
-    metrics["ended_by"] = reason
-    metrics["run_wall_time_s"] = total_wall  # including start-up, discovery, shutdown and analysis start
-    metrics["bag"] = {"path": str(bag_dir), "storage": info["storage_identifier"],
-                      "message_count": info["message_count"]}
-    metrics["messages"] = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
-    (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    metrics.ended_by = reason
+    metrics.run_wall_time_s = total_wall  # including start-up, discovery, shutdown and analysis start
+    metrics.bag = BagSummary(str(bag_dir), info["storage_identifier"], info["message_count"])
+    metrics.messages = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
+    (run_dir / "metrics.json").write_text(json.dumps(metrics.as_json(), indent=2) + "\n")
     figures = []
     if opts.figures:
         figures = response_figures(series, run_dir, scenario.name)
@@ -375,9 +374,11 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     return metrics
 
 
-def summary(m: dict[str, Any], run_dir: Path, figures: list[Path]) -> str:
+def summary(metrics: RunMetrics, run_dir: Path, figures: list[Path]) -> str:
     def f(x: Any, fmt: str = ".4g") -> str:
         return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)
+
+    m = metrics.as_json()
 
     lines = [
         f"{m['scenario']}: {f(m['sim_time_s'], '.2f')} s sim in {f(m['wall_time_s'], '.2f')} s wall"
