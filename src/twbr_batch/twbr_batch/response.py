@@ -11,6 +11,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+PITCH_BAND = 0.005  # [rad] "theta returns within +-0.005 rad of its equilibrium": the pitch's settling band
+
 
 @dataclass(frozen=True)
 class StepResponse:

@@ -20,7 +20,7 @@ import scipy.linalg
 import scipy.optimize
 
 from twbr_batch.closed_loop import Trace, run_closed_loop
-from twbr_batch.response import StepResponse, settle_time, step_response
+from twbr_batch.response import PITCH_BAND, StepResponse, settle_time, step_response
 from twbr_common.params import defaults
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
@@ -28,7 +28,6 @@ from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 VELOCITY_STEP = 0.1  # m/s, the paper's Figure 6
 YAW_RATE_STEP = 0.5  # rad/s
 STEP_AT = 0.5  # s
-PITCH_BAND = 0.005  # rad
 BALANCE_GAINS = ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight")
 BOUNDS = {"velocity.setpoint_weight": 1.0}
 YAW_GAINS = ("yaw_rate.kp", "yaw_rate.ki")

@@ -26,6 +26,12 @@ def next_due(t: float, due_at: float, period: float) -> float:
     return following if following > t + SLACK else t + period
 
 
+# The same two functions run by the interpreter: a node's Python loop calls them several times per state,
+# where a call through the compiled dispatcher costs several times the arithmetic.
+_is_due = getattr(is_due, "py_func", is_due)
+_next_due = getattr(next_due, "py_func", next_due)
+
+
 class Decimator:
     """`due(t)` is true once per period of sim or wall time t, by is_due/next_due; a time earlier than the
     last due instant (a restarted simulator) restarts the schedule."""
@@ -43,8 +49,8 @@ class Decimator:
     def due(self, t: float) -> bool:
         if self._last is not None and t < self._last:
             self.restart()
-        if not is_due(t, self._next):
+        if not _is_due(t, self._next):
             return False
-        self._next = next_due(t, self._next, self.period)
+        self._next = _next_due(t, self._next, self.period)
         self._last = t
         return True

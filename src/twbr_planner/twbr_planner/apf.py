@@ -387,7 +387,7 @@ class ApfPlanner:
         self.a = settings_vector(self.g)
 
     def warm_up(self) -> None:
-        """Load the compiled kernels now, on a copy, so the first planning instant is not 0.5 s late."""
+        """Load the compiled kernels now, on a copy, so the first planning instant is on time."""
         copy.deepcopy(self).step(0.0, 0.0, 0.0, 0.0, 0.0, Target(5.0, 0.0, 0.0, 0.0),
                                  Obstacles.of([(0, 2.0, 0.0, 0.5)]))
 

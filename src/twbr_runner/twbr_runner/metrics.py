@@ -13,11 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from twbr_batch.response import StepResponse, settle_time, step_response
+from twbr_batch.response import PITCH_BAND, StepResponse, settle_time, step_response
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT, InputGuard, Verdict
 
-PITCH_BAND = 0.005  # rad: "theta returns within +-0.005 rad of its equilibrium"
 TRANSIENT_S = 2.0  # s after the first non-zero reference: the paper's "first transient" (1.5-1.75 s)
 CONTROLLER_FIELDS = (
     "velocity_ref", "velocity", "yaw_rate_ref", "yaw_rate", "pitch_ref", "pitch", "pitch_rate",

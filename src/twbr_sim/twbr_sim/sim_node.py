@@ -187,7 +187,7 @@ class SimNode(Node):
 
     def _control_messages(self) -> tuple[Clock, Odometry, Imu]:
         """The clock, odom and imu messages every state refills: publish() serializes at once, and building
-        them afresh (nested messages, two covariance arrays each) was 40 % of publish_control_state."""
+        them afresh (nested messages, two covariance arrays each) was a large part of publishing a state."""
         odom = Odometry()
         odom.header.frame_id = self._frame_odom
         odom.child_frame_id = self._frame_base

@@ -8,8 +8,8 @@ for what is due, `time.monotonic()` [s] for the realtime schedule.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from enum import Enum
+from typing import NamedTuple
 
 from twbr_common.timing import Decimator
 
@@ -116,14 +116,12 @@ class RealtimeTicks:
         self.next_tick = max(self.next_tick + self.period, now - self.period)
 
 
-@dataclass(frozen=True)
-class StateTopics:
+class StateTopics(NamedTuple):
     clock: bool
     world: bool
 
 
-@dataclass(frozen=True)
-class TelemetryTopics:
+class TelemetryTopics(NamedTuple):
     tf: bool
     status: bool
     markers: bool
