@@ -3,6 +3,7 @@ killed controller. Runs use a short course (test/scenarios/fault_course.yaml, ab
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -127,7 +128,7 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
     assert m["min_clearance_m"] == pytest.approx(core.min_clearance_m, abs=0.05)
     assert m["pitch_min_rad"] == pytest.approx(core.pitch_min_rad, abs=0.002)
     assert m["pitch_max_rad"] == pytest.approx(core.pitch_max_rad, abs=0.002)
-    (run_dir / "fault_comparison.json").write_text(json.dumps({"core": core, "sent": sent}, indent=1))
+    (run_dir / "fault_comparison.json").write_text(json.dumps({"core": dataclasses.asdict(core), "sent": sent}, indent=1))
 
 
 def _t(msg) -> float:

@@ -14,6 +14,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_msgs.msg import ControllerState, PlannerState
+from twbr_runner.parameter_docs import NODE_PARAMETERS, RCLPY_PARAMETERS
 
 pytestmark = pytest.mark.e2e
 HERE = Path(__file__).parent
@@ -95,6 +96,10 @@ def test_param_dump_and_get_work_on_every_node(launch, ros):
     assert dumps["sim_node"]["body_mass"] == 12.0 and dumps["sim_node"]["mode"] == "lockstep"
     for dump in dumps.values():
         assert list(dump["cpu_affinity"])  # every CPU it may use
+    # docs/parameters.md documents exactly what each running node declares (beyond rclpy's own).
+    for node, dump in dumps.items():
+        documented = {spec.name for spec in NODE_PARAMETERS[node]}
+        assert set(dump) - set(RCLPY_PARAMETERS) == documented, node
 
 
 def test_a_namespaced_graph_takes_the_shipped_params_files(launch, ros):

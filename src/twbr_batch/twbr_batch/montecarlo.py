@@ -154,12 +154,12 @@ def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list
     ]
 
 
-def run_one(scenario_path: str, seed: int, perturbation: float) -> dict[str, Any]:
+def run_one(scenario_path: str, seed: int, perturbation: float) -> StudyRow:
     """One run of the scenario on the scalar cores (the nodes' classes): a CSV row."""
     return run_one_traced(scenario_path, seed, perturbation)[0]
 
 
-def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[dict[str, Any], Any]:
+def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[StudyRow, Any]:
     """run_one, and the run's closed_loop.Trace."""
     from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode

@@ -65,6 +65,18 @@ SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
 )
 
 
+# Every parameter each node declares besides rclpy's own: what its section(s) above document.
+NODE_PARAMETERS: dict[str, tuple[ParamSpec, ...]] = {
+    "sim_node": (*PROCESS_SPECS, *ROBOT_SPECS, *SIM_SPECS),
+    "world_node": (*PROCESS_SPECS, *WORLD_SPECS, *INPUT_SPECS),
+    "controller_node": (*PROCESS_SPECS, *CONTROL_SPECS, *CONTROLLER_NODE_SPECS, *INPUT_SPECS),
+    "planner_node": (*PROCESS_SPECS, *APF_SPECS, *PLANNER_NODE_SPECS, *INPUT_SPECS),
+    "command_player": (*PROCESS_SPECS, *PLAYER_SPECS),
+    "torque_driver": (*PROCESS_SPECS, *DRIVER_SPECS),
+}
+RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
+
+
 def render() -> str:
     parts = [INTRO]
     for heading, specs, note in SECTIONS:
