@@ -41,7 +41,7 @@ from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import check_consistent as check_planner
 from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
 from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
-from twbr_sim.scenario import Scenario, command_profile, command_profile_at
+from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
 from twbr_sim.simulator import SIM_SPECS, steps_per_publish
 from twbr_sim.world import (
     N_SEGMENT,
@@ -237,8 +237,8 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     record = traces.shape[0] > 0
     for i in numba.prange(params.shape[0]):
         trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
-        run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start, obstacle_velocity, radii,
-                  profile, results[i], trace)
+        run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
+                  radii, profile, results[i], trace)
 
 
 @dataclass
@@ -290,20 +290,22 @@ def run_batch(
     sc = scenario
     start = initial_state(sc.start_x, sc.start_y, sc.start_yaw, sc.start_pitch)
     states = np.tile(start, (n, 1))
+    layouts = [vary(sc, seed) for seed in seeds]  # each seed's layout, as its World would build it
     tgt = sc.target
     segments = np.zeros((n, N_SEGMENT))
     if tgt is not None:
         count = draws_needed(duration, tgt.turn_interval)
         draws = np.stack([yaw_rate_draws(np.random.default_rng(seed), tgt.max_yaw_rate, count) for seed in seeds])
-        segments[:, [SEG_X, SEG_Y, SEG_HEADING]] = tgt.x, tgt.y, tgt.heading
+        segments[:, [SEG_X, SEG_Y, SEG_HEADING]] = [(s.target.x, s.target.y, s.target.heading) for s in layouts]
         segments[:, SEG_YAW_RATE] = draws[:, 0]
         segments[:, SEG_NEXT_DRAW] = 1
     else:
         draws = np.zeros((n, 1))
-    obstacles = sc.obstacles
-    obstacle_start = np.array([[o.x, o.y] for o in obstacles], dtype=float).reshape(-1, 2)
-    obstacle_velocity = np.array([[o.vx, o.vy] for o in obstacles], dtype=float).reshape(-1, 2)
-    radii = np.array([o.radius for o in obstacles], dtype=float)
+    m = len(sc.obstacles)
+    obstacle_start = np.array([[[o.x, o.y] for o in s.obstacles] for s in layouts], dtype=float).reshape(n, m, 2)
+    obstacle_velocity = np.array([[[o.vx, o.vy] for o in s.obstacles] for s in layouts],
+                                 dtype=float).reshape(n, m, 2)
+    radii = np.array([o.radius for o in sc.obstacles], dtype=float)
     profile = np.ascontiguousarray(np.stack(command_profile(sc)))
     run = RUN_LAYOUT.pack({
         "h": 1.0 / physics_rate, "steps_per_control": steps_per_control, "n_samples": n_samples,

@@ -1,6 +1,7 @@
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -106,3 +107,66 @@ def test_unreadable_and_non_yaml_files_are_refused(tmp_path):
     listy.write_text(yaml.safe_dump([1, 2]))
     with pytest.raises(ConfigError, match="must be a mapping"):
         load_scenario(listy)
+
+
+VARIED = {
+    "name": "varied", "duration": 30.0, "end_on_target": True,
+    "robot": {"x": 0.0, "y": 0.0},
+    "target": {"position": [8.0, 0.0], "capture_radius": 0.5},
+    "obstacles": [{"id": 1, "position": [4.0, 0.0], "radius": 1.0},
+                  {"id": 2, "position": [4.0, 6.0], "radius": 0.5, "speed": 0.5, "heading": "-pi/2"}],
+    "variation": {"obstacle_position": 0.5, "obstacle_timing": 2.0, "obstacle_speed": 0.2, "target_position": 0.4},
+}
+
+
+def test_a_varied_scenario_is_one_layout_per_seed():
+    from twbr_sim.scenario import vary
+
+    sc = parse_scenario(VARIED)
+    layouts = [vary(sc, seed) for seed in range(200)]
+    assert vary(sc, 7) == layouts[7]  # the same seed, the same layout
+    assert len({(s.obstacles[0].x, s.target.y) for s in layouts}) == 200
+    for s in layouts:
+        still, moving = s.obstacles
+        assert abs(still.x - 4.0) <= 0.5 and abs(still.y) <= 0.5 and still.vx == still.vy == 0.0
+        assert 0.4 <= -moving.vy <= 0.6 and moving.vx == pytest.approx(0.0, abs=1e-12)
+        # the start moves by the position draw and by up to 2 s of its nominal motion along its path
+        assert abs(moving.y - 6.0) <= 0.5 + 2.0 * 0.5 + 1e-9
+        assert abs(s.target.x - 8.0) <= 0.4 and abs(s.target.y) <= 0.4
+        assert s.variation.any is False and s.target.capture_radius == 0.5
+    # every draw's timing and speed are used: the moving obstacle's line is not always the same
+    assert np.ptp([s.obstacles[1].y for s in layouts]) > 2.5  # of at most 3 m
+
+
+def test_a_variation_never_starts_inside_an_obstacle(monkeypatch):
+    from twbr_sim.scenario import vary
+
+    raw = {**VARIED, "obstacles": [{"id": 1, "position": [1.2, 0.0], "radius": 1.0}],
+           "variation": {"obstacle_position": 0.5}}
+    sc = parse_scenario(raw)
+    for seed in range(300):
+        o = vary(sc, seed).obstacles[0]
+        assert math.hypot(o.x, o.y) >= 1.0
+    impossible = parse_scenario({**raw, "variation": {"obstacle_position": 0.0, "target_position": 0.0}})
+    assert vary(impossible, 3) is impossible  # no variation: the scenario itself
+    # The robot on an obstacle's edge: about half the draws put it inside. With one draw allowed, some
+    # seeds have no layout, and they are refused by name.
+    edge = parse_scenario({**raw, "obstacles": [{"id": 1, "position": [0.0, 1.0], "radius": 1.0}]})
+    refused = []
+    with monkeypatch.context() as m:
+        m.setattr("twbr_sim.scenario.VARIATION_ATTEMPTS", 1)
+        for seed in range(20):
+            try:
+                vary(edge, seed)
+            except ConfigError as e:
+                assert f"no layout for seed {seed} in 1 draws" in str(e)
+                refused.append(seed)
+    assert 0 < len(refused) < 20
+    assert all(vary(edge, seed) for seed in refused)  # with the default attempts, a layout is found
+
+
+def test_an_unknown_variation_field_is_refused():
+    with pytest.raises(ConfigError, match="unknown field 'variation.obstacle_radius'"):
+        parse_scenario({**VARIED, "variation": {"obstacle_radius": 0.1}})
+    with pytest.raises(ConfigError, match="variation.obstacle_speed"):
+        parse_scenario({**VARIED, "variation": {"obstacle_speed": 1.5}})

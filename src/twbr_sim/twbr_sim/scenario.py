@@ -3,13 +3,18 @@
 Every field is checked against a range; a malformed file is refused with one message naming the field
 by its path (e.g. `obstacles[1].radius`) and its valid range. Angles may be written as numbers [rad]
 or as multiples of pi such as `3pi/4`.
+
+A scenario may vary with the seed (`variation`): obstacles' and the target's start positions, the moving
+obstacles' timing along their paths and their speeds are drawn per seed, so that a study of many seeds is
+many layouts of one kind, not one layout many times. `vary(scenario, seed)` gives the seed's layout; the
+world (sim_node, world_node, the headless runs) and the batch engine both build theirs with it.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +81,20 @@ class CommandStep:
 
 
 @dataclass(frozen=True)
+class Variation:
+    """Per-seed changes of the layout, each drawn uniformly in +-its value (0: none)."""
+
+    obstacle_position: float = 0.0  # [m] on each of x and y of each obstacle's start
+    obstacle_timing: float = 0.0  # [s] a moving obstacle starts this much earlier or later along its path
+    obstacle_speed: float = 0.0  # fraction of a moving obstacle's speed
+    target_position: float = 0.0  # [m] on each of x and y of the target's start
+
+    @property
+    def any(self) -> bool:
+        return any((self.obstacle_position, self.obstacle_timing, self.obstacle_speed, self.target_position))
+
+
+@dataclass(frozen=True)
 class Scenario:
     name: str
     description: str
@@ -89,6 +108,7 @@ class Scenario:
     obstacles: tuple[ObstacleSpec, ...] = ()
     commands: tuple[CommandStep, ...] = ()
     end_on_target: bool = False
+    variation: Variation = Variation()
     source: str = field(default="", compare=False)
 
 
@@ -118,6 +138,16 @@ _OBSTACLE = (
     ParamSpec("radius", 1.0, "radius", "m", 0.0, 1000.0, low_open=True),
     ParamSpec("speed", 0.0, "constant speed", "m/s", 0.0, 100.0),
     ParamSpec("heading", 0.0, "direction of motion", "rad", -2 * math.pi, 2 * math.pi),
+)
+_VARIATION = (
+    ParamSpec("obstacle_position", 0.0, "each obstacle's start moves by up to this in x and in y, per seed", "m",
+              0.0, 100.0),
+    ParamSpec("obstacle_timing", 0.0, "each moving obstacle starts up to this much earlier or later along its"
+              " path, per seed", "s", 0.0, 1000.0),
+    ParamSpec("obstacle_speed", 0.0, "each moving obstacle's speed changes by up to this fraction, per seed", "",
+              0.0, 0.9),
+    ParamSpec("target_position", 0.0, "the target's start moves by up to this in x and in y, per seed", "m",
+              0.0, 100.0),
 )
 _COMMAND = (
     ParamSpec("t", 0.0, "time from which the command holds", "s", 0.0, 86400.0),
@@ -169,6 +199,7 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
     target_raw = raw.pop("target", None)
     obstacles_raw = raw.pop("obstacles", None) or []
     commands_raw = raw.pop("commands", None) or []
+    variation = Variation(**_section(_VARIATION, raw.pop("variation", None), "variation"))
     top = _section(_TOP, raw, "")
     robot = _section(_ROBOT, robot_raw, "robot")
     target = None
@@ -202,22 +233,64 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         if commands and cm["t"] <= commands[-1].t:
             raise ConfigError(f"invalid field 'commands[{k}].t' = {cm['t']}: times must increase")
         commands.append(CommandStep(cm["t"], cm["v"], cm["w"]))
-    points = [("robot", robot["x"], robot["y"])] + ([("target.position", target.x, target.y)] if target else [])
-    for o in obstacles:
-        # At t = 0: a robot that starts inside an obstacle has collided already, a target inside one is never
-        # reached.
-        for what, x, y in points:
-            if math.hypot(x - o.x, y - o.y) < o.radius:
-                raise ConfigError(f"invalid field '{what}' = [{x:g}, {y:g}]: inside obstacle {o.id} (centre"
-                                  f" [{o.x:g}, {o.y:g}], radius {o.radius:g} m) at t = 0")
     if top["end_on_target"] and target is None:
         raise ConfigError("invalid field 'end_on_target' = True: the scenario has no target")
-    return Scenario(
+    if variation.any and not (target is not None or obstacles):
+        raise ConfigError("invalid field 'variation': the scenario has no target and no obstacles to vary")
+    scenario = Scenario(
         name=name, description=description, duration=top["duration"], seed=top["seed"],
         start_x=robot["x"], start_y=robot["y"], start_yaw=robot["yaw"], start_pitch=robot["pitch"],
         target=target, obstacles=tuple(obstacles), commands=tuple(commands),
-        end_on_target=top["end_on_target"], source=source,
+        end_on_target=top["end_on_target"], variation=variation, source=source,
     )
+    if (problem := layout_problem(scenario)) is not None:
+        raise ConfigError(problem)
+    return scenario
+
+
+def layout_problem(scenario: Scenario) -> str | None:
+    """What makes the layout at t = 0 impossible, or None: a robot that starts inside an obstacle has
+    collided already, a target inside one is never reached."""
+    target = scenario.target
+    points = [("robot", scenario.start_x, scenario.start_y)] + (
+        [("target.position", target.x, target.y)] if target else [])
+    for o in scenario.obstacles:
+        for what, x, y in points:
+            if math.hypot(x - o.x, y - o.y) < o.radius:
+                return (f"invalid field '{what}' = [{x:g}, {y:g}]: inside obstacle {o.id} (centre"
+                        f" [{o.x:g}, {o.y:g}], radius {o.radius:g} m) at t = 0")
+    return None
+
+
+VARIATION_ATTEMPTS = 100  # draws tried for a seed before its layout is refused
+
+
+def vary(scenario: Scenario, seed: int) -> Scenario:
+    """The layout of `seed`: the scenario with its variation drawn (itself when it has none).
+
+    The draws come from a stream of their own (the target's turns use the seed too); a draw that puts the
+    robot or the target inside an obstacle is drawn again, deterministically."""
+    v = scenario.variation
+    if not v.any:
+        return scenario
+    rng = np.random.default_rng([seed, 0x7661])
+    for _ in range(VARIATION_ATTEMPTS):
+        obstacles = []
+        for o in scenario.obstacles:
+            dx, dy = rng.uniform(-v.obstacle_position, v.obstacle_position, 2)
+            shift = rng.uniform(-v.obstacle_timing, v.obstacle_timing)
+            scale = 1.0 + rng.uniform(-v.obstacle_speed, v.obstacle_speed)
+            obstacles.append(ObstacleSpec(o.id, o.x + dx + o.vx * shift, o.y + dy + o.vy * shift, o.vx * scale,
+                                          o.vy * scale, o.radius))
+        target = scenario.target
+        if target is not None:
+            dx, dy = rng.uniform(-v.target_position, v.target_position, 2)
+            target = replace(target, x=target.x + dx, y=target.y + dy)
+        varied = replace(scenario, obstacles=tuple(obstacles), target=target, variation=Variation())
+        if layout_problem(varied) is None:
+            return varied
+    raise ConfigError(f"scenario {scenario.name}: no layout for seed {seed} in {VARIATION_ATTEMPTS} draws keeps"
+                      " the robot and the target out of the obstacles; reduce 'variation'")
 
 
 def load_scenario(path: str | Path) -> Scenario:

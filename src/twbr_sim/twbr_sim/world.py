@@ -18,7 +18,7 @@ import numpy as np
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
-from twbr_sim.scenario import ObstacleSpec, Scenario
+from twbr_sim.scenario import ObstacleSpec, Scenario, vary
 
 # The target's current segment: where and when it started, its heading then, its yaw rate, and the index
 # of the next yaw-rate draw.
@@ -138,6 +138,8 @@ def draws_needed(duration: float, turn_interval: float) -> int:
 
 class World:
     def __init__(self, scenario: Scenario, robot_radius: float, seed: int) -> None:
+        """The world of `seed`: its layout (scenario.vary) and its target's turns."""
+        scenario = vary(scenario, seed)
         self.scenario = scenario
         self.robot_radius = robot_radius
         self._rng = np.random.default_rng(seed)
