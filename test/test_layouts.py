@@ -11,6 +11,7 @@ from twbr_common.params import defaults
 from twbr_control import cascade, pid
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_planner import apf
+from twbr_planner.planner import PlannerOutput
 from twbr_planner.planner_params import APF_SPECS
 from twbr_sim import dynamics, robot_params
 from twbr_sim.robot_params import ROBOT_SPECS
@@ -49,12 +50,17 @@ def test_pid_gains_layout_is_the_dataclass_fields():
 def test_planner_settings_are_the_apf_specs_by_name():
     assert apf.SETTINGS_LAYOUT.names == tuple(s.name for s in APF_SPECS)
     g = {s.name: float(i + 1) for i, s in enumerate(APF_SPECS)}
-    a = apf.settings_vector(g)
-    assert a[apf.A_RHO_O] == g["rho_o"] and a[apf.A_STUCK_PROGRESS] == g["stuck_progress"]
+    for method, code in (("paper", apf.PAPER), ("robust", apf.ROBUST)):
+        a = apf.settings_vector({**g, "method": method})
+        assert a[apf.A_METHOD] == code
+        assert a[apf.A_RHO_O] == g["rho_o"] and a[apf.A_STUCK_PROGRESS] == g["stuck_progress"]
+        assert a[apf.A_REPULSION_RANGE] == g["repulsion_range"] and a[apf.A_SAFETY_LOOKAHEAD] == g["safety_lookahead"]
+        assert sorted(a[[i for i, s in enumerate(APF_SPECS) if s.name != "method"]]) == sorted(
+            v for k, v in g.items() if k != "method")  # every other parameter in a slot of its own
 
 
 def test_planner_outputs_are_named_like_planner_output():
-    out_fields = {f.name for f in fields(apf.PlannerOutput)}
+    out_fields = {f.name for f in fields(PlannerOutput)}
     for name in ("velocity_cmd", "yaw_rate_cmd", "distance_to_target", "nearest_obstacle_distance", "mode"):
         assert name in apf.OUTPUT_LAYOUT.names and name in out_fields
 

@@ -3,7 +3,7 @@
 Each robot is the headless closed loop of `closed_loop` (the state at step k, the command computed from
 it held until step k+1; the planner and the world's assessment at their own rates), compiled as one
 kernel and run over the robot axis in parallel threads. It calls the very kernels the scalar cores and
-so the nodes call (`dynamics.advance_upright`, `cascade.cascade_compute`, `apf.apf_step`, the world's
+so the nodes call (`dynamics.advance_upright`, `cascade.cascade_compute`, `planner.plan_step`, the world's
 `advance_segments`, `target_at`, `obstacle_positions_at`, `assess_obstacles`, the scenario's
 `command_profile_at`): there is no second copy of an equation to drift apart.
 
@@ -32,10 +32,20 @@ from twbr_control.cascade import N_STATE as N_CONTROL_STATE
 from twbr_control.cascade import settings_vector as control_vector
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_control.controller_params import check_consistent as check_controller
+from twbr_planner.apf import (
+    A_RHO_O,
+    PROGRESS_COLUMNS,
+    Q_DISTANCE,
+    Q_MODE,
+    Q_OMEGA,
+    Q_V,
+    STUCK,
+    progress_capacity,
+)
 from twbr_planner.apf import N_MEMORY as N_PLANNER_MEMORY
 from twbr_planner.apf import N_OUTPUTS as N_PLANNER_OUTPUTS
-from twbr_planner.apf import PROGRESS_COLUMNS, Q_MODE, Q_OMEGA, Q_V, STUCK, apf_step, progress_capacity
 from twbr_planner.apf import settings_vector as planner_vector
+from twbr_planner.planner import plan_step
 from twbr_planner.planner_params import APF_SPECS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import check_consistent as check_planner
@@ -84,9 +94,14 @@ U_TURN_INTERVAL = RUN_LAYOUT["turn_interval"]
 U_CAPTURE_RADIUS = RUN_LAYOUT["capture_radius"]
 U_RING_ROWS = RUN_LAYOUT["ring_rows"]
 # Per-robot result columns.
+# The first collision's obstacle (-1: none) and where the robot was when that obstacle last came into the
+# detection range (t [s], x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), for the avoidability check;
+# the pitch's largest magnitude after the first 2 s; the distance to the target and whether the planner
+# reported stuck at the last plan.
 RESULT_LAYOUT = Layout((
     "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
-    "samples", "physics_steps",
+    "samples", "physics_steps", "hit_obstacle", ("detected", 6), "pitch_abs_max_settled", "final_distance",
+    "stuck_at_end",
 ))
 Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
 Z_COLLISIONS = RESULT_LAYOUT["collisions"]
@@ -98,7 +113,13 @@ Z_STUCK_STEPS = RESULT_LAYOUT["stuck_steps"]
 Z_SIM_TIME = RESULT_LAYOUT["sim_time"]
 Z_SAMPLES = RESULT_LAYOUT["samples"]
 Z_PHYSICS_STEPS = RESULT_LAYOUT["physics_steps"]
+Z_HIT_OBSTACLE = RESULT_LAYOUT["hit_obstacle"]
+Z_DETECTED = RESULT_LAYOUT["detected"]  # t, x, y, yaw, speed, yaw rate
+Z_PITCH_SETTLED = RESULT_LAYOUT["pitch_abs_max_settled"]
+Z_FINAL_DISTANCE = RESULT_LAYOUT["final_distance"]
+Z_STUCK_AT_END = RESULT_LAYOUT["stuck_at_end"]
 N_RESULT = len(RESULT_LAYOUT)
+SETTLING_TIME = 2.0  # [s] the start's transient, left out of pitch_abs_max_settled
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
 # [m/s], yaw [rad], the controller's wheel torque commands [N*m] and the references [m/s, rad/s].
 TRACE_COLUMNS = ("t", "x_c", "y_c", "pitch", "velocity", "yaw", "left_torque", "right_torque", "velocity_ref",
@@ -150,6 +171,15 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     tally = np.zeros(N_TALLY)
     positions = np.empty_like(obstacle_start)
     distances = np.empty(radii.shape[0])
+    # per obstacle: inside the detection range at the last plan, and the robot's (t, x, y, yaw, speed,
+    # yaw rate) when it last came in
+    detected = np.zeros(radii.shape[0], dtype=np.bool_)
+    detected_at = np.zeros((radii.shape[0], 6))
+    hit_obstacle = -1
+    hit_detected = np.full(6, math.nan)
+    pitch_settled = 0.0
+    final_distance = math.nan
+    stuck_at_end = False
     torque_limit = wheel_torque_limit(p)
     robot_radius = p[P_ROBOT_RADIUS]
     record = trace.shape[0] > 0
@@ -176,8 +206,15 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
         if is_due(t, world_next):  # the world's assessment, at the world rate
             world_next = next_due(t, world_next, world_period)
             obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
-            clearance, _hit = assess_obstacles(positions, radii, robot_radius, x, y, tally)
+            collisions_before = tally[W_COLLISIONS]
+            clearance, hit = assess_obstacles(positions, radii, robot_radius, x, y, tally)
             min_clearance = min(min_clearance, clearance)
+            if hit_obstacle < 0 and tally[W_COLLISIONS] > collisions_before:
+                hit_obstacle = hit
+                if detected[hit]:
+                    hit_detected[:] = detected_at[hit]
+                else:  # it came into range and hit between two plans: the robot now
+                    hit_detected[:] = (t, x, y, state[S_PSI], state[S_XD], state[S_PSID])
             if has_target and math.isnan(reached_at):
                 tx, ty, _heading, _vx, _vy = target_at(segment, target_speed, t)
                 if math.hypot(tx - x, ty - y) <= capture_radius:
@@ -187,18 +224,32 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                 plan_next = next_due(t, plan_next, planner_period)
                 tx, ty, _heading, tvx, tvy = target_at(segment, target_speed, t)
                 obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
-                apf_step(a, memory, ring, plan_out, t, x, y, state[S_PSI], state[S_XD], tx, ty, tvx, tvy,
-                         positions, radii, distances)
+                plan_step(a, memory, ring, plan_out, t, x, y, state[S_PSI], state[S_XD], tx, ty, tvx, tvy,
+                          positions, obstacle_velocity, radii, distances)
                 v_ref = plan_out[Q_V]
                 w_ref = plan_out[Q_OMEGA]
-                if plan_out[Q_MODE] == STUCK:
+                stuck_at_end = plan_out[Q_MODE] == STUCK
+                if stuck_at_end:
                     stuck_steps += 1
+                final_distance = plan_out[Q_DISTANCE]
+                for j in range(radii.shape[0]):
+                    inside = distances[j] <= a[A_RHO_O]
+                    if inside and not detected[j]:
+                        detected_at[j, 0] = t
+                        detected_at[j, 1] = x
+                        detected_at[j, 2] = y
+                        detected_at[j, 3] = state[S_PSI]
+                        detected_at[j, 4] = state[S_XD]
+                        detected_at[j, 5] = state[S_PSID]
+                    detected[j] = inside
         else:
             v_ref, w_ref = command_profile_at(cmd_times, cmd_speeds, cmd_yaw_rates, t)
         cascade_compute(c, control, control_out, t, v_ref, w_ref, state[S_XD], state[S_PSID], pitch, pitch_rate,
                         False)
         pitch_min = min(pitch_min, pitch)
         pitch_max = max(pitch_max, pitch)
+        if t >= SETTLING_TIME:
+            pitch_settled = max(pitch_settled, abs(pitch))
         if record:
             row = trace[k]
             row[T_T] = t
@@ -229,6 +280,11 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     result[Z_SIM_TIME] = t
     result[Z_SAMPLES] = k + 1
     result[Z_PHYSICS_STEPS] = step_count
+    result[Z_HIT_OBSTACLE] = hit_obstacle
+    result[Z_DETECTED:Z_DETECTED + 6] = hit_detected
+    result[Z_PITCH_SETTLED] = pitch_settled
+    result[Z_FINAL_DISTANCE] = final_distance
+    result[Z_STUCK_AT_END] = 1.0 if stuck_at_end else 0.0
 
 
 @parallel_kernel

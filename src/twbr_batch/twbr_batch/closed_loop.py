@@ -93,7 +93,8 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
                       log: list | None = None) -> Reference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
     planner node's default when None)."""
-    from twbr_planner.apf import ApfPlanner, Obstacles, Target
+    from twbr_planner.apf import Obstacles
+    from twbr_planner.planner import ApfPlanner, Target
     from twbr_planner.planner_params import APF_SPECS, check_consistent
     from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 
@@ -110,7 +111,8 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
         world = sim.world
         state = world.target() if world is not None else None
         target = Target(state.x, state.y, *state.velocity) if state is not None else None
-        obstacles = Obstacles.of([(o.id, o.x, o.y, o.radius) for o in world.obstacles()]) if world else Obstacles.empty()
+        obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in world.obstacles()]) if world
+                     else Obstacles.empty())
         out = core.step(t, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_XD], target, obstacles)
         if log is not None:
             log.append(out)

@@ -7,10 +7,8 @@ import pytest
 
 from twbr_common.params import defaults
 from twbr_planner.apf import (
-    ApfPlanner,
     Mode,
     Obstacles,
-    Target,
     attractive_force,
     potential,
     repulsive_force,
@@ -19,6 +17,7 @@ from twbr_planner.apf import (
     speed_command,
     yaw_rate_command,
 )
+from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import APF_SPECS
 
 G = defaults(APF_SPECS)

@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from twbr_common.params import defaults
-from twbr_planner.apf import ApfPlanner, Obstacles, Target
+from twbr_planner.apf import Obstacles
+from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import APF_SPECS
 
 G = defaults(APF_SPECS)

@@ -23,7 +23,6 @@ of the equations, on the same scalar kernels.
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -36,7 +35,7 @@ from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import default_of
-from twbr_planner.planner_params import APF_SPECS
+from twbr_planner.planner_params import APF_SPECS, METHODS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 
 
@@ -48,13 +47,17 @@ class Mode(Enum):
     STUCK = "stuck"  # no progress towards the target for stuck_time: a local minimum (reported, not hidden)
     STALE = "stale"  # target or obstacle data too old: stopped
     NO_TARGET = "no_target"  # nothing to go to yet: stopped
+    ESCAPING = "escaping"  # robust: following an obstacle's boundary out of a local minimum
+    EVADING = "evading"  # robust: stepping out of a moving obstacle's path
 
 
 MODES = tuple(Mode)  # a mode's code in the kernels is its index here
-TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET = range(len(MODES))
+TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET, ESCAPING, EVADING = range(len(MODES))
+PAPER, ROBUST = range(len(METHODS))  # a method's code in the settings vector
 
-# Settings vector: planner_params.APF_SPECS by name.
+# Settings vector: planner_params.APF_SPECS by name (the method by its code).
 SETTINGS_LAYOUT = Layout(spec.name for spec in APF_SPECS)
+A_METHOD = SETTINGS_LAYOUT["method"]
 A_K_P = SETTINGS_LAYOUT["k_p"]
 A_K_V = SETTINGS_LAYOUT["k_v"]
 A_K_O = SETTINGS_LAYOUT["k_o"]
@@ -71,21 +74,40 @@ A_MAX_ACCELERATION = SETTINGS_LAYOUT["max_acceleration"]
 A_MAX_YAW_ACCELERATION = SETTINGS_LAYOUT["max_yaw_acceleration"]
 A_STUCK_TIME = SETTINGS_LAYOUT["stuck_time"]
 A_STUCK_PROGRESS = SETTINGS_LAYOUT["stuck_progress"]
-# Memory vector: the last command (for the acceleration limits) and the progress ring's head and length.
-MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length"))
+A_REPULSION_RANGE = SETTINGS_LAYOUT["repulsion_range"]
+A_GOAL_FADE = SETTINGS_LAYOUT["goal_fade"]
+A_FOLLOW_RANGE = SETTINGS_LAYOUT["follow_range"]
+A_FOLLOW_CLEARANCE = SETTINGS_LAYOUT["follow_clearance"]
+A_EVADE_HORIZON = SETTINGS_LAYOUT["evade_horizon"]
+A_EVADE_MARGIN = SETTINGS_LAYOUT["evade_margin"]
+A_EVADE_GAIN = SETTINGS_LAYOUT["evade_gain"]
+A_SPEED_POLICY = SETTINGS_LAYOUT["speed_policy"]
+A_SAFETY_FILTER = SETTINGS_LAYOUT["safety_filter"]
+A_SAFETY_GAMMA = SETTINGS_LAYOUT["safety_gamma"]
+A_SAFETY_MARGIN = SETTINGS_LAYOUT["safety_margin"]
+A_SAFETY_LOOKAHEAD = SETTINGS_LAYOUT["safety_lookahead"]
+# Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
+# the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
+# it began).
+MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length", "following",
+                        "follow_side", "hit_distance", "follow_since"))
 R_HAS_LAST = MEMORY_LAYOUT["has_last"]
 R_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 R_LAST_V = MEMORY_LAYOUT["last_v"]
 R_LAST_OMEGA = MEMORY_LAYOUT["last_omega"]
 R_HEAD = MEMORY_LAYOUT["head"]
 R_LENGTH = MEMORY_LAYOUT["length"]
+R_FOLLOWING = MEMORY_LAYOUT["following"]
+R_FOLLOW_SIDE = MEMORY_LAYOUT["follow_side"]
+R_HIT_DISTANCE = MEMORY_LAYOUT["hit_distance"]
+R_FOLLOW_SINCE = MEMORY_LAYOUT["follow_since"]
 N_MEMORY = len(MEMORY_LAYOUT)
 PROGRESS_COLUMNS = 4  # (t, distance, x, y) per planning step
 # Output vector of one step.
 OUTPUT_LAYOUT = Layout((
     "attractive_force_x", "attractive_force_y", "repulsive_force_x", "repulsive_force_y", "desired_heading",
     "heading_error", "velocity_cmd", "yaw_rate_cmd", "distance_to_target", "nearest_obstacle_distance",
-    "nearest_obstacle_index", "mode",
+    "nearest_obstacle_index", "mode", "escape_side", "threat_index", "active_constraint_index",
 ))
 Q_F_ATT_X = OUTPUT_LAYOUT["attractive_force_x"]
 Q_F_ATT_Y = OUTPUT_LAYOUT["attractive_force_y"]
@@ -99,6 +121,9 @@ Q_DISTANCE = OUTPUT_LAYOUT["distance_to_target"]
 Q_NEAREST_D = OUTPUT_LAYOUT["nearest_obstacle_distance"]
 Q_NEAREST_INDEX = OUTPUT_LAYOUT["nearest_obstacle_index"]
 Q_MODE = OUTPUT_LAYOUT["mode"]
+Q_ESCAPE_SIDE = OUTPUT_LAYOUT["escape_side"]  # robust: +1 / -1 while following a boundary, else 0
+Q_THREAT = OUTPUT_LAYOUT["threat_index"]  # robust: the moving obstacle being evaded, -1 none
+Q_ACTIVE_CONSTRAINT = OUTPUT_LAYOUT["active_constraint_index"]  # robust: the obstacle the safety filter bound, -1
 N_OUTPUTS = len(OUTPUT_LAYOUT)
 # [s] the first command's acceleration step: one period at the node's default rate.
 FIRST_PERIOD = 1.0 / default_of(PLANNER_NODE_SPECS, "rate")
@@ -106,7 +131,7 @@ FIRST_PERIOD = 1.0 / default_of(PLANNER_NODE_SPECS, "rate")
 
 def settings_vector(g: Mapping[str, Any]) -> np.ndarray:
     """The planner's validated parameters (planner_params.APF_SPECS) in the kernel's layout."""
-    return SETTINGS_LAYOUT.pack(g)
+    return SETTINGS_LAYOUT.pack({**g, "method": METHODS.index(g["method"])})
 
 
 def progress_capacity(stuck_time: float, rate: float) -> int:
@@ -116,23 +141,25 @@ def progress_capacity(stuck_time: float, rate: float) -> int:
 
 @dataclass(frozen=True)
 class Obstacles:
-    """Circular obstacles: positions (N, 2) [m], radii (N,) [m], ids (N,)."""
+    """Circular obstacles: positions (N, 2) [m], radii (N,) [m], ids (N,), velocities (N, 2) [m/s]."""
 
     positions: np.ndarray
     radii: np.ndarray
     ids: np.ndarray
+    velocities: np.ndarray
 
     @staticmethod
     def empty() -> Obstacles:
-        return Obstacles(np.empty((0, 2)), np.empty(0), np.empty(0, dtype=int))
+        return Obstacles(np.empty((0, 2)), np.empty(0), np.empty(0, dtype=int), np.empty((0, 2)))
 
     @staticmethod
-    def of(items: list[tuple[int, float, float, float]]) -> Obstacles:
-        """From (id, x, y, radius) tuples."""
+    def of(items: list[tuple[float, ...]]) -> Obstacles:
+        """From (id, x, y, radius) or (id, x, y, radius, vx, vy) tuples (without a velocity: at rest)."""
         if not items:
             return Obstacles.empty()
-        a = np.array(items, dtype=float)
-        return Obstacles(np.ascontiguousarray(a[:, 1:3]), a[:, 3].copy(), a[:, 0].astype(int))
+        a = np.array([(*item, 0.0, 0.0) if len(item) == 4 else item for item in items], dtype=float)
+        return Obstacles(np.ascontiguousarray(a[:, 1:3]), a[:, 3].copy(), a[:, 0].astype(int),
+                         np.ascontiguousarray(a[:, 4:6]))
 
 
 @kernel
@@ -340,84 +367,6 @@ def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     out[Q_NEAREST_D] = nearest_d
     out[Q_NEAREST_INDEX] = nearest
     out[Q_MODE] = mode
-
-
-@dataclass(frozen=True)
-class Target:
-    x: float
-    y: float
-    vx: float
-    vy: float
-
-
-@dataclass(frozen=True)
-class PlannerOutput:
-    stamp: float
-    attractive_force: np.ndarray
-    repulsive_force: np.ndarray
-    total_force: np.ndarray
-    desired_heading: float
-    heading_error: float
-    velocity_cmd: float
-    yaw_rate_cmd: float
-    distance_to_target: float
-    nearest_obstacle_distance: float
-    nearest_obstacle_id: int
-    mode: Mode
-
-
-class ApfPlanner:
-    """Eqs. 19-28 plus arrival, following and a stuck (local minimum) report."""
-
-    def __init__(self, g: Mapping[str, Any], rate: float | None = None) -> None:
-        """`g`: APF_SPECS values; `rate` [Hz]: how often `step` is called (the node's default when None)."""
-        self.g = dict(g)
-        self.a = settings_vector(self.g)
-        self.m = np.zeros(N_MEMORY)
-        rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
-        self._ring = np.zeros((progress_capacity(self.g["stuck_time"], rate), PROGRESS_COLUMNS))
-        self._out = np.zeros(N_OUTPUTS)
-
-    def reset(self) -> None:
-        self.m[:] = 0.0
-
-    def retune(self, g: Mapping[str, Any]) -> None:
-        """New gains and limits from the next plan on; the memory (slew limits, progress) is kept."""
-        self.g = dict(g)
-        self.a = settings_vector(self.g)
-
-    def warm_up(self) -> None:
-        """Load the compiled kernels now, on a copy, so the first planning instant is on time."""
-        copy.deepcopy(self).step(0.0, 0.0, 0.0, 0.0, 0.0, Target(5.0, 0.0, 0.0, 0.0),
-                                 Obstacles.of([(0, 2.0, 0.0, 0.5)]))
-
-    def stopped(self, stamp: float, mode: Mode) -> PlannerOutput:
-        zero = np.zeros(2)
-        return PlannerOutput(stamp, zero, zero, zero, math.nan, math.nan, 0.0, 0.0, math.nan, math.inf, -1, mode)
-
-    def _make_room(self) -> None:
-        """The node's rate is its own: the ring grows (oldest row first) if a faster rate fills it."""
-        if int(self.m[R_LENGTH]) < len(self._ring):
-            return
-        head = int(self.m[R_HEAD])
-        self._ring = np.concatenate([np.roll(self._ring, -head, axis=0), np.zeros_like(self._ring)])
-        self.m[R_HEAD] = 0.0
-
-    def step(self, stamp: float, x: float, y: float, yaw: float, speed: float, target: Target | None,
-             obstacles: Obstacles) -> PlannerOutput:
-        if target is None:
-            return self.stopped(stamp, Mode.NO_TARGET)
-        self._make_room()
-        o = self._out
-        d = np.empty(len(obstacles.radii))
-        apf_step(self.a, self.m, self._ring, o, float(stamp), float(x), float(y), float(yaw), float(speed),
-                 float(target.x), float(target.y), float(target.vx), float(target.vy), obstacles.positions,
-                 obstacles.radii, d)
-        f_att = o[Q_F_ATT_X:Q_F_ATT_Y + 1].copy()
-        f_rep = o[Q_F_REP_X:Q_F_REP_Y + 1].copy()
-        nearest = int(o[Q_NEAREST_INDEX])
-        return PlannerOutput(
-            stamp, f_att, f_rep, f_att + f_rep, float(o[Q_ALPHA]), float(o[Q_ERROR]), float(o[Q_V]),
-            float(o[Q_OMEGA]), float(o[Q_DISTANCE]), float(o[Q_NEAREST_D]),
-            int(obstacles.ids[nearest]) if nearest >= 0 else -1, MODES[int(o[Q_MODE])],
-        )
+    out[Q_ESCAPE_SIDE] = 0.0
+    out[Q_THREAT] = -1.0
+    out[Q_ACTIVE_CONSTRAINT] = -1.0

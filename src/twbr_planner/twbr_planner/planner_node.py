@@ -30,7 +30,8 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORL
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
-from twbr_planner.apf import ApfPlanner, Mode, Obstacles, PlannerOutput, Target
+from twbr_planner.apf import Mode, Obstacles
+from twbr_planner.planner import ApfPlanner, PlannerOutput, Target
 from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent
 
 FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
@@ -182,8 +183,8 @@ class PlannerNode(Node):
         """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
         t0, msg = self._obstacles
         age = max(0.0, stamp - t0)
-        return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius)
-                             for o in msg.obstacles])
+        return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius,
+                              o.velocity.x, o.velocity.y) for o in msg.obstacles])
 
     def _publish(self, odom: Odometry, out: PlannerOutput, x: float, y: float) -> None:
         twist = Twist()
@@ -221,6 +222,13 @@ def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, paramet
     msg.nearest_obstacle_distance = float(out.nearest_obstacle_distance)
     msg.nearest_obstacle_id = int(out.nearest_obstacle_id)
     msg.mode = out.mode.value
+    msg.method = cfg["method"]
+    msg.escape_side = int(out.escape_side)
+    msg.threat_id = int(out.threat_id)
+    msg.active_constraint_id = int(out.active_constraint_id)
+    robust = cfg["method"] == "robust"
+    msg.repulsion_range = float(cfg["repulsion_range"] if robust else cfg["rho_o"])
+    msg.goal_fade = float(cfg["goal_fade"] if robust else 0.0)
     return msg
 
 

@@ -4,8 +4,13 @@ from __future__ import annotations
 
 from twbr_common.params import ConfigError, ParamSpec, tunable
 
+METHODS = ("paper", "robust")
+
 APF_SPECS: tuple[ParamSpec, ...] = (
     *tunable(
+    ParamSpec("method", "paper", "paper: the paper's field (eqs. 19-28 with the documented fixes); robust: the"
+              " paper's field with goal-reachable repulsion, boundary following, dynamic repulsion, a braking"
+              " speed policy and a safety filter (docs/planner.md)", choices=METHODS),
     ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
               low_open=True),
     ParamSpec("k_v", 0.5, "K_v: attractive gain on the target's relative velocity (eq. 21)", "1/s", 0.0, 1000.0),
@@ -32,7 +37,33 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("stuck_time", 8.0, "no progress over this long is reported as stuck (a local minimum)", "s",
               0.1, 1000.0),
     *tunable(ParamSpec("stuck_progress", 0.2, "progress towards the target below this over stuck_time is no"
-                       " progress", "m", 0.0, 100.0)),
+                       " progress", "m", 0.0, 100.0),
+    # The robust method's additions (method: robust); each has a value that switches it off.
+    ParamSpec("repulsion_range", 0.8, "robust: the repulsion (eq. 23) acts within this clearance (rho_o stays the"
+              " detection range of the speed policy and the safety filter)", "m", 0.0, 100.0, low_open=True),
+    ParamSpec("goal_fade", 1.5, "robust: the repulsion is scaled by min(1, (distance to target / goal_fade)^2)"
+              " so that it vanishes at the target; 0 turns it off", "m", 0.0, 100.0),
+    ParamSpec("follow_range", 1.0, "robust: a way to the target blocked this close starts boundary following"
+              " (the local-minimum escape); 0 turns it off", "m", 0.0, 100.0),
+    ParamSpec("follow_clearance", 0.45, "robust: clearance kept while following a boundary", "m", 0.0, 100.0,
+              low_open=True),
+    ParamSpec("evade_horizon", 8.0, "robust: a moving obstacle whose closest approach comes within this time"
+              " pushes the robot out of its path; 0 turns it off", "s", 0.0, 1000.0),
+    ParamSpec("evade_margin", 0.4, "robust: an approach closer than this to the footprint is a threat", "m",
+              0.0, 100.0),
+    ParamSpec("evade_gain", 3.0, "robust: weight of the way out of a threat's path against the field's"
+              " direction", "", 0.0, 1000.0),
+    ParamSpec("speed_policy", True, "robust: at most the speed that max_acceleration stops before the first static"
+              " obstacle ahead, never slowed by a moving obstacle being evaded (false: eq. 28)"),
+    ParamSpec("safety_filter", True, "robust: a control barrier function per obstacle keeps the command"
+              " admissible (within one period's acceleration)"),
+    ParamSpec("safety_gamma", 1.0, "robust: the barrier's rate: dh/dt + safety_gamma h >= 0", "1/s", 0.0, 1000.0,
+              low_open=True),
+    ParamSpec("safety_margin", 0.05, "robust: clearance the safety filter and the speed policy keep", "m", 0.0,
+              10.0),
+    ParamSpec("safety_lookahead", 0.3, "robust: the barrier is on a point this far ahead of the axle (where the"
+              " yaw rate acts too)", "m", 0.0, 10.0, low_open=True),
+    ),
 )
 
 NODE_SPECS: tuple[ParamSpec, ...] = (

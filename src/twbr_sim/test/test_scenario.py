@@ -166,7 +166,7 @@ def test_a_variation_never_starts_inside_an_obstacle(monkeypatch):
 
 
 def test_an_unknown_variation_field_is_refused():
-    with pytest.raises(ConfigError, match="unknown field 'variation.obstacle_radius'"):
+    with pytest.raises(ConfigError, match=r"unknown field 'variation\.obstacle_radius'"):
         parse_scenario({**VARIED, "variation": {"obstacle_radius": 0.1}})
-    with pytest.raises(ConfigError, match="variation.obstacle_speed"):
+    with pytest.raises(ConfigError, match=r"variation\.obstacle_speed"):
         parse_scenario({**VARIED, "variation": {"obstacle_speed": 1.5}})

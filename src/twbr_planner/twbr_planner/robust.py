@@ -1,0 +1,421 @@
+"""The robust potential-field planner (`method: robust`): the paper's field, and what its failures call for.
+
+It keeps the paper's attraction (eq. 21) and repulsion (eq. 23) and steers along their sum, with five
+additions, each switched off by one parameter for the ablation study (docs/planner.md says where each
+comes from):
+
+1. Goal-reachable repulsion (Ge & Cui 2000): the repulsion is scaled by min(1, (rho_g / goal_fade)^2),
+   rho_g the distance to the target, so it vanishes at the target and a target next to an obstacle is
+   reachable. It also acts only within `repulsion_range` of a surface (not the detection range): a gap
+   the robot fits through is not closed by its edges' fields. While the way to the target is free, the
+   repulsion only steers sideways (its component against the target's direction is dropped).
+2. Boundary following out of local minima (the tangential field of a Bug-style escape): when the straight
+   way to the target is blocked within `follow_range`, the robot follows the obstacles' boundary (the
+   tangent of the repulsion, at `follow_clearance`) on the side nearer the target's direction, and leaves
+   it once it is closer to the target than where it started and the way towards the target is free for
+   the detection range rho_o (TangentBug's rule).
+3. Dynamic repulsion (after Ge & Cui 2002): a moving obstacle whose closest approach, at the current
+   relative velocity, comes within `evade_margin` of the robot's footprint in less than `evade_horizon`
+   pushes the robot sideways out of its swept path, early, instead of braking in it.
+4. A speed policy for a robot that must lean to brake: at most the speed from which `max_acceleration`
+   stops the robot before the first static obstacle ahead, and never slowed by a moving obstacle it is
+   evading.
+5. A safety filter: a control barrier function per obstacle on a point `safety_lookahead` ahead of the
+   axle (where both v and omega act), h = |q - p_j|^2 - R_j^2, requiring dh/dt + gamma h >= 0 with the
+   obstacle's velocity; the admissible (v, omega) nearest the field's command, within the acceleration
+   limits of one planning period, is chosen among a grid of candidates (or, when none is admissible,
+   the one that violates least).
+
+Everything is compiled and shared with the batch engine, like the paper's `apf_step`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
+from twbr_planner.apf import (
+    A_APPROACH_GAIN,
+    A_CAPTURE_RADIUS,
+    A_EVADE_GAIN,
+    A_EVADE_HORIZON,
+    A_EVADE_MARGIN,
+    A_FOLLOW_CLEARANCE,
+    A_FOLLOW_RANGE,
+    A_GOAL_FADE,
+    A_K_O,
+    A_K_P,
+    A_K_S,
+    A_K_V,
+    A_MAX_ACCELERATION,
+    A_MAX_YAW_ACCELERATION,
+    A_MAX_YAW_RATE,
+    A_MIN_DISTANCE,
+    A_REPULSION_RANGE,
+    A_RHO_O,
+    A_ROBOT_RADIUS,
+    A_SAFETY_FILTER,
+    A_SAFETY_GAMMA,
+    A_SAFETY_LOOKAHEAD,
+    A_SAFETY_MARGIN,
+    A_SLOW_IN_TURNS,
+    A_SPEED_POLICY,
+    A_V_MAX,
+    ARRIVED,
+    AVOIDING,
+    ESCAPING,
+    EVADING,
+    FIRST_PERIOD,
+    FOLLOWING,
+    Q_ACTIVE_CONSTRAINT,
+    Q_ALPHA,
+    Q_DISTANCE,
+    Q_ERROR,
+    Q_ESCAPE_SIDE,
+    Q_F_ATT_X,
+    Q_F_ATT_Y,
+    Q_F_REP_X,
+    Q_F_REP_Y,
+    Q_MODE,
+    Q_NEAREST_D,
+    Q_NEAREST_INDEX,
+    Q_OMEGA,
+    Q_THREAT,
+    Q_V,
+    R_FOLLOW_SIDE,
+    R_FOLLOW_SINCE,
+    R_FOLLOWING,
+    R_HAS_LAST,
+    R_HEAD,
+    R_HIT_DISTANCE,
+    R_LAST_OMEGA,
+    R_LAST_STAMP,
+    R_LAST_V,
+    R_LENGTH,
+    STUCK,
+    TRACKING,
+    _attractive,
+    _repulsive_magnitude,
+    _smooth,
+    _stuck,
+)
+
+FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
+FOLLOW_GAIN = 2.0  # [1/m] how hard boundary following corrects its distance to the boundary
+LEAVE_PROGRESS = 0.2  # [m] boundary following ends this much closer to the target than it began
+FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leaving turns to the other side
+V_CANDIDATES = 5  # the safety filter's grid of forward speeds within one period's acceleration
+OMEGA_CANDIDATES = 11  # and of yaw rates
+STOP_ROOM = 0.3  # [m] beside the nearest obstacle, the robot may run on this much further than its clearance
+OMEGA_WEIGHT = 0.1  # [s^2] cost of a yaw-rate change against a speed change, (m/s)^2 per (rad/s)^2
+
+
+@kernel
+def ray_clearance(x, y, ux, uy, positions, radii, inflate, reach, moving, skip_moving):
+    """Distance along the unit direction (ux, uy) from (x, y) to the first obstacle inflated by `inflate`,
+    within `reach` (reach when none); obstacles flagged in `moving` are left out when skip_moving."""
+    first = reach
+    for j in range(radii.shape[0]):
+        if skip_moving and moving[j]:
+            continue
+        ox = positions[j, 0] - x
+        oy = positions[j, 1] - y
+        along = ox * ux + oy * uy
+        r = radii[j] + inflate
+        across2 = ox * ox + oy * oy - along * along
+        if across2 >= r * r:
+            continue
+        inside = math.sqrt(r * r - across2)
+        entry = along - inside
+        if along + inside <= 0.0:
+            continue  # behind
+        first = min(first, max(entry, 0.0))
+    return first
+
+
+@kernel
+def boundary_normal(x, y, positions, radii, robot_radius, reach):
+    """Unit vector away from the obstacles within `reach` of the footprint (weighted by closeness), and the
+    smallest clearance among them; (0, 0, inf) when none is that close."""
+    nx = 0.0
+    ny = 0.0
+    nearest = math.inf
+    for j in range(radii.shape[0]):
+        ax = x - positions[j, 0]
+        ay = y - positions[j, 1]
+        centre = max(math.sqrt(ax * ax + ay * ay), 1e-9)
+        d = centre - radii[j] - robot_radius
+        if d > reach:
+            continue
+        w = 1.0 / (max(d, 0.02) + 0.05) ** 2
+        nx += w * ax / centre
+        ny += w * ay / centre
+        nearest = min(nearest, d)
+    norm = math.hypot(nx, ny)
+    if norm < 1e-12:
+        return 0.0, 0.0, nearest
+    return nx / norm, ny / norm, nearest
+
+
+@kernel
+def evasion(a, x, y, vx, vy, positions, velocities, radii):
+    """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the unit
+    normal to each one's path on the robot's side, weighted by urgency; and the most urgent one's index."""
+    horizon = a[A_EVADE_HORIZON]
+    ex = 0.0
+    ey = 0.0
+    threat = -1
+    urgent = 0.0
+    if horizon <= 0.0:
+        return ex, ey, threat
+    for j in range(radii.shape[0]):
+        ovx = velocities[j, 0]
+        ovy = velocities[j, 1]
+        speed = math.hypot(ovx, ovy)
+        if speed < 1e-3:
+            continue
+        px = x - positions[j, 0]
+        py = y - positions[j, 1]
+        wx = vx - ovx
+        wy = vy - ovy
+        ww = wx * wx + wy * wy
+        if ww < 1e-9:
+            continue
+        tau = -(px * wx + py * wy) / ww  # time of the closest approach
+        if tau <= 0.0 or tau > horizon:
+            continue
+        reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
+        miss = math.hypot(px + wx * tau, py + wy * tau)
+        if miss >= reach:
+            continue
+        ux = ovx / speed
+        uy = ovy / speed
+        side = ux * py - uy * px  # which side of the obstacle's path the robot is on
+        sign = 1.0 if side > 1e-3 else -1.0  # on the path itself: step to the path's right
+        weight = (1.0 - tau / horizon) * (reach - miss) / reach
+        ex += weight * sign * -uy
+        ey += weight * sign * ux
+        if weight > urgent:
+            urgent = weight
+            threat = j
+    return ex, ey, threat
+
+
+@kernel
+def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii):
+    """(v, omega, index of the binding obstacle or -1): the admissible command nearest the nominal one."""
+    if m[R_HAS_LAST] != 0.0 and stamp > m[R_LAST_STAMP]:
+        dt = stamp - m[R_LAST_STAMP]
+    elif m[R_HAS_LAST] != 0.0:
+        dt = 0.0
+    else:
+        dt = FIRST_PERIOD
+    dv = a[A_MAX_ACCELERATION] * dt
+    dw = a[A_MAX_YAW_ACCELERATION] * dt
+    v_lo = max(m[R_LAST_V] - dv, -a[A_V_MAX])
+    v_hi = min(m[R_LAST_V] + dv, a[A_V_MAX])
+    w_lo = max(m[R_LAST_OMEGA] - dw, -a[A_MAX_YAW_RATE])
+    w_hi = min(m[R_LAST_OMEGA] + dw, a[A_MAX_YAW_RATE])
+    v0 = min(max(v_nominal, v_lo), v_hi)
+    w0 = min(max(omega_nominal, w_lo), w_hi)
+    ex = math.cos(yaw)
+    ey = math.sin(yaw)
+    look = a[A_SAFETY_LOOKAHEAD]
+    qx = x + look * ex
+    qy = y + look * ey
+    gamma = a[A_SAFETY_GAMMA]
+    # Each obstacle in range gives a constraint linear in the command: cv * A + cw * B + C >= 0.
+    n = radii.shape[0]
+    coef = np.empty((n, 3))
+    index = np.empty(n, dtype=np.int64)
+    count = 0
+    for j in range(n):
+        rx = qx - positions[j, 0]
+        ry = qy - positions[j, 1]
+        reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_SAFETY_MARGIN]
+        centre = math.sqrt(rx * rx + ry * ry)
+        if centre - reach > a[A_RHO_O]:
+            continue  # beyond the detection range
+        coef[count, 0] = 2.0 * (rx * ex + ry * ey)
+        coef[count, 1] = 2.0 * look * (ry * ex - rx * ey)
+        coef[count, 2] = -2.0 * (rx * velocities[j, 0] + ry * velocities[j, 1]) + gamma * (centre * centre - reach * reach)
+        index[count] = j
+        count += 1
+    if count == 0:
+        return v0, w0, -1
+    best_v = v0
+    best_w = w0
+    best_cost = math.inf
+    best_slack = -math.inf
+    best_binding = -1
+    for i in range(V_CANDIDATES + 1):
+        cv = v0 if i == V_CANDIDATES else v_lo + (v_hi - v_lo) * i / (V_CANDIDATES - 1)
+        for k in range(OMEGA_CANDIDATES + 1):
+            cw = w0 if k == OMEGA_CANDIDATES else w_lo + (w_hi - w_lo) * k / (OMEGA_CANDIDATES - 1)
+            slack = math.inf
+            binding = -1
+            for c in range(count):
+                s = cv * coef[c, 0] + cw * coef[c, 1] + coef[c, 2]
+                if s < slack:
+                    slack = s
+                    binding = index[c]
+            cost = (cv - v_nominal) ** 2 + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
+            feasible = slack >= 0.0
+            if (feasible and (best_slack < 0.0 or cost < best_cost)) or (
+                    not feasible and best_slack < 0.0 and slack > best_slack):
+                best_v = cv
+                best_w = cw
+                best_cost = cost
+                best_slack = slack
+                best_binding = binding
+    changed = abs(best_v - v0) > 1e-12 or abs(best_w - w0) > 1e-12
+    return best_v, best_w, best_binding if changed else -1
+
+
+@kernel
+def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
+                velocities, radii, distances):
+    """One planning step of the robust method into `out` (Q_*)."""
+    vx = speed * math.cos(yaw)
+    vy = speed * math.sin(yaw)
+    robot_radius = a[A_ROBOT_RADIUS]
+    f_att_x, f_att_y = _attractive(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
+    distance = math.hypot(target_x - x, target_y - y)
+    moving_target = math.hypot(target_vx, target_vy) > 1e-3
+    fade = 1.0
+    if a[A_GOAL_FADE] > 0.0:
+        fade = min(1.0, (distance / a[A_GOAL_FADE]) ** 2)
+    # 1. repulsion within repulsion_range, faded towards the target; moving obstacles are flagged
+    f_rep_x = 0.0
+    f_rep_y = 0.0
+    nearest = -1
+    nearest_d = math.inf
+    nearest_static = math.inf
+    moving = np.empty(radii.shape[0], dtype=np.bool_)
+    for j in range(radii.shape[0]):
+        ax = x - positions[j, 0]
+        ay = y - positions[j, 1]
+        centre = math.sqrt(ax * ax + ay * ay)
+        d = centre - radii[j] - robot_radius
+        distances[j] = d
+        moving[j] = math.hypot(velocities[j, 0], velocities[j, 1]) > 1e-3
+        if d < nearest_d or nearest < 0:
+            nearest = j
+            nearest_d = d
+        if not moving[j]:
+            nearest_static = min(nearest_static, d)
+        magnitude = fade * _repulsive_magnitude(d, a[A_K_O], a[A_REPULSION_RANGE], a[A_MIN_DISTANCE])
+        scale = max(centre, 1e-9)
+        f_rep_x += magnitude * ax / scale
+        f_rep_y += magnitude * ay / scale
+    # is the straight way to the target free (static obstacles, footprint and a margin)?
+    att_norm = math.hypot(f_att_x, f_att_y)
+    gx = f_att_x / att_norm if att_norm > 1e-12 else math.cos(yaw)
+    gy = f_att_y / att_norm if att_norm > 1e-12 else math.sin(yaw)
+    reach_goal = distance
+    blocked_at = ray_clearance(x, y, gx, gy, positions, radii, robot_radius + FREE_MARGIN, reach_goal, moving, True)
+    free = blocked_at >= reach_goal
+    if free:
+        along = f_rep_x * gx + f_rep_y * gy
+        if along < 0.0:  # the way is free: the repulsion steers, it does not hold the robot back
+            f_rep_x -= along * gx
+            f_rep_y -= along * gy
+    total_x = f_att_x + f_rep_x
+    total_y = f_att_y + f_rep_y
+    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
+    # 2. boundary following out of a local minimum
+    side = 0.0
+    nx, ny, near_boundary = boundary_normal(x, y, positions, radii, robot_radius, a[A_FOLLOW_RANGE])
+    if a[A_FOLLOW_RANGE] > 0.0:
+        if m[R_FOLLOWING] != 0.0:
+            elapsed = stamp - m[R_FOLLOW_SINCE]
+            # TangentBug's leave rule: closer than where following began, and the way ahead towards the
+            # target free for the detection range (what lies beyond is met as it comes)
+            clear_ahead = min(blocked_at, reach_goal) >= min(reach_goal, a[A_RHO_O])
+            if clear_ahead and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
+                m[R_FOLLOWING] = 0.0
+            elif near_boundary == math.inf:
+                m[R_FOLLOWING] = 0.0  # lost the boundary: back to the field
+            elif elapsed > FOLLOW_FLIP:
+                m[R_FOLLOW_SIDE] = -m[R_FOLLOW_SIDE]
+                m[R_FOLLOW_SINCE] = stamp
+                m[R_HIT_DISTANCE] = distance
+        elif not free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius and near_boundary < math.inf:
+            m[R_FOLLOWING] = 1.0
+            m[R_HIT_DISTANCE] = distance
+            m[R_FOLLOW_SINCE] = stamp
+            # the side whose tangent is nearer the target's direction
+            m[R_FOLLOW_SIDE] = 1.0 if (-ny * gx + nx * gy) >= 0.0 else -1.0
+        if m[R_FOLLOWING] != 0.0 and near_boundary < math.inf:
+            side = m[R_FOLLOW_SIDE]
+            tx = -ny * side
+            ty = nx * side
+            correction = FOLLOW_GAIN * (a[A_FOLLOW_CLEARANCE] - near_boundary)
+            total_x = tx + correction * nx
+            total_y = ty + correction * ny
+            mode = ESCAPING
+    # 3. dynamic repulsion: out of a moving obstacle's swept path
+    ex, ey, threat = evasion(a, x, y, vx, vy, positions, velocities, radii)
+    if threat >= 0:
+        norm = math.hypot(total_x, total_y)
+        base_x = total_x / norm if norm > 1e-12 else 0.0
+        base_y = total_y / norm if norm > 1e-12 else 0.0
+        total_x = base_x + a[A_EVADE_GAIN] * ex
+        total_y = base_y + a[A_EVADE_GAIN] * ey
+        mode = EVADING
+    alpha = math.atan2(total_y, total_x)
+    error = wrap_angle(alpha - yaw)
+    omega = min(max(a[A_K_S] * error, -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
+    # 4. speed
+    v = a[A_V_MAX]
+    if a[A_SLOW_IN_TURNS] != 0.0:
+        v *= max(0.0, math.cos(error))
+    if a[A_SPEED_POLICY] != 0.0:
+        # able to stop before the first static obstacle ahead, and (the robot may turn towards any of them)
+        # before the nearest static one; a moving obstacle being evaded does not slow the robot down
+        ahead = ray_clearance(x, y, math.cos(yaw), math.sin(yaw), positions, radii, robot_radius, a[A_RHO_O] * 4.0,
+                              moving, threat >= 0)
+        room = min(ahead, nearest_static + STOP_ROOM) - a[A_SAFETY_MARGIN]
+        v = min(v, math.sqrt(2.0 * a[A_MAX_ACCELERATION] * max(room, 0.0)))
+    else:
+        v = min(v, a[A_V_MAX] * max(min(nearest_d, a[A_RHO_O]), 0.0) / a[A_RHO_O])  # eq. 28
+    arrived = False
+    if distance <= a[A_CAPTURE_RADIUS]:
+        if moving_target:
+            mode = FOLLOWING
+        else:
+            m[R_HEAD] = 0.0
+            m[R_LENGTH] = 0.0
+            m[R_FOLLOWING] = 0.0
+            v = 0.0
+            omega = 0.0
+            mode = ARRIVED
+            arrived = True
+    if not arrived:
+        if not moving_target:
+            v = min(v, a[A_APPROACH_GAIN] * distance)
+        if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+            mode = STUCK
+    # 5. the safety filter, then the acceleration limits' memory
+    binding = -1
+    if a[A_SAFETY_FILTER] != 0.0 and not arrived:
+        v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii)
+    v, omega = _smooth(a, m, stamp, v, omega)
+    out[Q_F_ATT_X] = f_att_x
+    out[Q_F_ATT_Y] = f_att_y
+    out[Q_F_REP_X] = f_rep_x
+    out[Q_F_REP_Y] = f_rep_y
+    out[Q_ALPHA] = alpha
+    out[Q_ERROR] = error
+    out[Q_V] = v
+    out[Q_OMEGA] = omega
+    out[Q_DISTANCE] = distance
+    out[Q_NEAREST_D] = nearest_d
+    out[Q_NEAREST_INDEX] = nearest
+    out[Q_MODE] = mode
+    out[Q_ESCAPE_SIDE] = side
+    out[Q_THREAT] = threat
+    out[Q_ACTIVE_CONSTRAINT] = binding
