@@ -86,6 +86,7 @@ A_SAFETY_FILTER = SETTINGS_LAYOUT["safety_filter"]
 A_SAFETY_GAMMA = SETTINGS_LAYOUT["safety_gamma"]
 A_SAFETY_MARGIN = SETTINGS_LAYOUT["safety_margin"]
 A_SAFETY_LOOKAHEAD = SETTINGS_LAYOUT["safety_lookahead"]
+A_BRAKE_DECELERATION = SETTINGS_LAYOUT["brake_deceleration"]
 # Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
 # it began).
@@ -265,24 +266,35 @@ def potential(points: np.ndarray, p_tar: np.ndarray, obstacles: Obstacles, g: Ma
 
 
 @kernel
-def _smooth(a, m, stamp, v, omega):
-    """Acceleration limits (a velocity smoother): a balancing robot must lean to accelerate, so a
-    speed step is a pitch transient; these keep |pitch| within about a/g of upright."""
+def command_period(m, stamp):
+    """[s] since the last command: the step the acceleration limits allow for."""
     if m[R_HAS_LAST] != 0.0 and stamp > m[R_LAST_STAMP]:
-        dt = stamp - m[R_LAST_STAMP]
-    elif m[R_HAS_LAST] != 0.0:
-        dt = 0.0  # a repeated stamp repeats the last command
-    else:
-        dt = FIRST_PERIOD  # the first command starts from rest, like every later one from the previous one
-    dv = a[A_MAX_ACCELERATION] * dt
+        return stamp - m[R_LAST_STAMP]
+    if m[R_HAS_LAST] != 0.0:
+        return 0.0  # a repeated stamp repeats the last command
+    return FIRST_PERIOD  # the first command starts from rest, like every later one from the previous one
+
+
+@kernel
+def limit_rates(a, m, stamp, v, omega, deceleration):
+    """Acceleration limits (a velocity smoother): a balancing robot must lean to accelerate, so a
+    speed step is a pitch transient; these keep |pitch| within about a/g of upright. The speed rises at
+    most by max_acceleration and falls at most by `deceleration`; the memory takes the command."""
+    dt = command_period(m, stamp)
     dw = a[A_MAX_YAW_ACCELERATION] * dt
-    v = min(max(v, m[R_LAST_V] - dv), m[R_LAST_V] + dv)
+    v = min(max(v, m[R_LAST_V] - deceleration * dt), m[R_LAST_V] + a[A_MAX_ACCELERATION] * dt)
     omega = min(max(omega, m[R_LAST_OMEGA] - dw), m[R_LAST_OMEGA] + dw)
     m[R_HAS_LAST] = 1.0
     m[R_LAST_STAMP] = stamp
     m[R_LAST_V] = v
     m[R_LAST_OMEGA] = omega
     return v, omega
+
+
+@kernel
+def _smooth(a, m, stamp, v, omega):
+    """The paper method's limits: the same rate up and down."""
+    return limit_rates(a, m, stamp, v, omega, a[A_MAX_ACCELERATION])
 
 
 @kernel

@@ -53,11 +53,14 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               0.0, 100.0),
     ParamSpec("evade_gain", 3.0, "robust: weight of the way out of a threat's path against the field's"
               " direction", "", 0.0, 1000.0),
+    ParamSpec("brake_deceleration", 0.12, "robust: the speed may fall this fast (it rises at most by"
+              " max_acceleration): the speed policy and the safety filter brake with it; a balancing robot leans"
+              " back about a/g to brake", "m/s²", 0.0, 100.0, low_open=True),
     ParamSpec("speed_policy", True, "robust: at most the speed that max_acceleration stops before the first static"
-              " obstacle ahead, never slowed by a moving obstacle being evaded (false: eq. 28)"),
+              " obstacle ahead and the nearest one, never slowed by a moving obstacle being evaded (false: eq. 28)"),
     ParamSpec("safety_filter", True, "robust: a control barrier function per obstacle keeps the command"
               " admissible (within one period's acceleration)"),
-    ParamSpec("safety_gamma", 1.0, "robust: the barrier's rate: dh/dt + safety_gamma h >= 0", "1/s", 0.0, 1000.0,
+    ParamSpec("safety_gamma", 0.5, "robust: the barrier's rate: dh/dt + safety_gamma h >= 0", "1/s", 0.0, 1000.0,
               low_open=True),
     ParamSpec("safety_margin", 0.05, "robust: clearance the safety filter and the speed policy keep", "m", 0.0,
               10.0),

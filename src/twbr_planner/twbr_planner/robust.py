@@ -17,9 +17,9 @@ comes from):
 3. Dynamic repulsion (after Ge & Cui 2002): a moving obstacle whose closest approach, at the current
    relative velocity, comes within `evade_margin` of the robot's footprint in less than `evade_horizon`
    pushes the robot sideways out of its swept path, early, instead of braking in it.
-4. A speed policy for a robot that must lean to brake: at most the speed from which `max_acceleration`
-   stops the robot before the first static obstacle ahead, and never slowed by a moving obstacle it is
-   evading.
+4. A speed policy for a robot that must lean to brake: at most the speed from which `brake_deceleration`
+   stops the robot before the first static obstacle ahead and before the nearest one (it may turn
+   towards it), and never slowed by a moving obstacle it is evading.
 5. A safety filter: a control barrier function per obstacle on a point `safety_lookahead` ahead of the
    axle (where both v and omega act), h = |q - p_j|^2 - R_j^2, requiring dh/dt + gamma h >= 0 with the
    obstacle's velocity; the admissible (v, omega) nearest the field's command, within the acceleration
@@ -39,6 +39,7 @@ from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_APPROACH_GAIN,
+    A_BRAKE_DECELERATION,
     A_CAPTURE_RADIUS,
     A_EVADE_GAIN,
     A_EVADE_HORIZON,
@@ -68,7 +69,6 @@ from twbr_planner.apf import (
     AVOIDING,
     ESCAPING,
     EVADING,
-    FIRST_PERIOD,
     FOLLOWING,
     Q_ACTIVE_CONSTRAINT,
     Q_ALPHA,
@@ -88,19 +88,18 @@ from twbr_planner.apf import (
     R_FOLLOW_SIDE,
     R_FOLLOW_SINCE,
     R_FOLLOWING,
-    R_HAS_LAST,
     R_HEAD,
     R_HIT_DISTANCE,
     R_LAST_OMEGA,
-    R_LAST_STAMP,
     R_LAST_V,
     R_LENGTH,
     STUCK,
     TRACKING,
     _attractive,
     _repulsive_magnitude,
-    _smooth,
     _stuck,
+    command_period,
+    limit_rates,
 )
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
@@ -109,8 +108,9 @@ LEAVE_PROGRESS = 0.2  # [m] boundary following ends this much closer to the targ
 FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leaving turns to the other side
 V_CANDIDATES = 5  # the safety filter's grid of forward speeds within one period's acceleration
 OMEGA_CANDIDATES = 11  # and of yaw rates
-STOP_ROOM = 0.3  # [m] beside the nearest obstacle, the robot may run on this much further than its clearance
-OMEGA_WEIGHT = 0.1  # [s^2] cost of a yaw-rate change against a speed change, (m/s)^2 per (rad/s)^2
+STOP_ROOM = 0.0  # [m] beside the nearest obstacle, the robot may run on this much further than its clearance
+OMEGA_WEIGHT = 0.1
+VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal  # [s^2] cost of a yaw-rate change against a speed change, (m/s)^2 per (rad/s)^2
 
 
 @kernel
@@ -207,16 +207,10 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii):
 @kernel
 def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii):
     """(v, omega, index of the binding obstacle or -1): the admissible command nearest the nominal one."""
-    if m[R_HAS_LAST] != 0.0 and stamp > m[R_LAST_STAMP]:
-        dt = stamp - m[R_LAST_STAMP]
-    elif m[R_HAS_LAST] != 0.0:
-        dt = 0.0
-    else:
-        dt = FIRST_PERIOD
-    dv = a[A_MAX_ACCELERATION] * dt
+    dt = command_period(m, stamp)
     dw = a[A_MAX_YAW_ACCELERATION] * dt
-    v_lo = max(m[R_LAST_V] - dv, -a[A_V_MAX])
-    v_hi = min(m[R_LAST_V] + dv, a[A_V_MAX])
+    v_lo = max(m[R_LAST_V] - a[A_BRAKE_DECELERATION] * dt, -a[A_V_MAX])
+    v_hi = min(m[R_LAST_V] + a[A_MAX_ACCELERATION] * dt, a[A_V_MAX])
     w_lo = max(m[R_LAST_OMEGA] - dw, -a[A_MAX_YAW_RATE])
     w_hi = min(m[R_LAST_OMEGA] + dw, a[A_MAX_YAW_RATE])
     v0 = min(max(v_nominal, v_lo), v_hi)
@@ -249,27 +243,31 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     best_v = v0
     best_w = w0
     best_cost = math.inf
-    best_slack = -math.inf
+    best_violation = math.inf
     best_binding = -1
     for i in range(V_CANDIDATES + 1):
         cv = v0 if i == V_CANDIDATES else v_lo + (v_hi - v_lo) * i / (V_CANDIDATES - 1)
         for k in range(OMEGA_CANDIDATES + 1):
             cw = w0 if k == OMEGA_CANDIDATES else w_lo + (w_hi - w_lo) * k / (OMEGA_CANDIDATES - 1)
+            violation = 0.0
             slack = math.inf
             binding = -1
             for c in range(count):
                 s = cv * coef[c, 0] + cw * coef[c, 1] + coef[c, 2]
+                if s < 0.0:
+                    violation -= s
                 if s < slack:
                     slack = s
                     binding = index[c]
             cost = (cv - v_nominal) ** 2 + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
-            feasible = slack >= 0.0
-            if (feasible and (best_slack < 0.0 or cost < best_cost)) or (
-                    not feasible and best_slack < 0.0 and slack > best_slack):
+            # the least total violation (none: admissible), and among equals the nearest the nominal command;
+            # a constraint no candidate can help (a wall straight ahead while braking) leaves the steering free
+            if violation < best_violation - VIOLATION_TIE or (
+                    violation <= best_violation + VIOLATION_TIE and cost < best_cost):
                 best_v = cv
                 best_w = cw
                 best_cost = cost
-                best_slack = slack
+                best_violation = min(violation, best_violation)
                 best_binding = binding
     changed = abs(best_v - v0) > 1e-12 or abs(best_w - w0) > 1e-12
     return best_v, best_w, best_binding if changed else -1
@@ -379,7 +377,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         ahead = ray_clearance(x, y, math.cos(yaw), math.sin(yaw), positions, radii, robot_radius, a[A_RHO_O] * 4.0,
                               moving, threat >= 0)
         room = min(ahead, nearest_static + STOP_ROOM) - a[A_SAFETY_MARGIN]
-        v = min(v, math.sqrt(2.0 * a[A_MAX_ACCELERATION] * max(room, 0.0)))
+        v = min(v, math.sqrt(2.0 * a[A_BRAKE_DECELERATION] * max(room, 0.0)))
     else:
         v = min(v, a[A_V_MAX] * max(min(nearest_d, a[A_RHO_O]), 0.0) / a[A_RHO_O])  # eq. 28
     arrived = False
@@ -403,7 +401,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     binding = -1
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
         v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii)
-    v, omega = _smooth(a, m, stamp, v, omega)
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
     out[Q_F_ATT_X] = f_att_x
     out[Q_F_ATT_Y] = f_att_y
     out[Q_F_REP_X] = f_rep_x
