@@ -93,6 +93,7 @@ from twbr_planner.apf import (
     R_LAST_OMEGA,
     R_LAST_V,
     R_LENGTH,
+    R_STALLED,
     STUCK,
     TRACKING,
     _attractive,
@@ -108,9 +109,9 @@ LEAVE_PROGRESS = 0.2  # [m] boundary following ends this much closer to the targ
 FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leaving turns to the other side
 V_CANDIDATES = 5  # the safety filter's grid of forward speeds within one period's acceleration
 OMEGA_CANDIDATES = 11  # and of yaw rates
-STOP_ROOM = 0.0  # [m] beside the nearest obstacle, the robot may run on this much further than its clearance
-OMEGA_WEIGHT = 0.1
-VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal  # [s^2] cost of a yaw-rate change against a speed change, (m/s)^2 per (rad/s)^2
+OMEGA_WEIGHT = 0.1  # [s^2] cost of a yaw-rate change against a speed change
+REVERSE_BELOW = 0.05  # [m/s] evading, a robot slower than this may back away
+VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal
 
 
 @kernel
@@ -309,12 +310,12 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         scale = max(centre, 1e-9)
         f_rep_x += magnitude * ax / scale
         f_rep_y += magnitude * ay / scale
-    # is the straight way to the target free (static obstacles, footprint and a margin)?
+    # is the straight way to the target free (every obstacle where it is now, footprint and a margin)?
     att_norm = math.hypot(f_att_x, f_att_y)
     gx = f_att_x / att_norm if att_norm > 1e-12 else math.cos(yaw)
     gy = f_att_y / att_norm if att_norm > 1e-12 else math.sin(yaw)
     reach_goal = distance
-    blocked_at = ray_clearance(x, y, gx, gy, positions, radii, robot_radius + FREE_MARGIN, reach_goal, moving, True)
+    blocked_at = ray_clearance(x, y, gx, gy, positions, radii, robot_radius + FREE_MARGIN, reach_goal, moving, False)
     free = blocked_at >= reach_goal
     if free:
         along = f_rep_x * gx + f_rep_y * gy
@@ -341,7 +342,10 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
                 m[R_FOLLOW_SIDE] = -m[R_FOLLOW_SIDE]
                 m[R_FOLLOW_SINCE] = stamp
                 m[R_HIT_DISTANCE] = distance
-        elif not free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius and near_boundary < math.inf:
+        elif near_boundary < math.inf and (
+                (not free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius)  # the way is blocked close by
+                or total_x * gx + total_y * gy < 0.0  # or the field pushes away from the target: a basin
+                or m[R_STALLED] != 0.0):  # or the progress detector found none
             m[R_FOLLOWING] = 1.0
             m[R_HIT_DISTANCE] = distance
             m[R_FOLLOW_SINCE] = stamp
@@ -355,17 +359,30 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             total_x = tx + correction * nx
             total_y = ty + correction * ny
             mode = ESCAPING
-    # 3. dynamic repulsion: out of a moving obstacle's swept path
+    # 3. dynamic repulsion: out of a moving obstacle's swept path, never towards the obstacle
     ex, ey, threat = evasion(a, x, y, vx, vy, positions, velocities, radii)
     if threat >= 0:
         norm = math.hypot(total_x, total_y)
         base_x = total_x / norm if norm > 1e-12 else 0.0
         base_y = total_y / norm if norm > 1e-12 else 0.0
+        to_x = positions[threat, 0] - x
+        to_y = positions[threat, 1] - y
+        to_norm = max(math.hypot(to_x, to_y), 1e-9)
+        towards = (base_x * to_x + base_y * to_y) / to_norm
+        if towards > 0.0:
+            base_x -= towards * to_x / to_norm
+            base_y -= towards * to_y / to_norm
         total_x = base_x + a[A_EVADE_GAIN] * ex
         total_y = base_y + a[A_EVADE_GAIN] * ey
         mode = EVADING
     alpha = math.atan2(total_y, total_x)
     error = wrap_angle(alpha - yaw)
+    # Out of a threat's path a robot that is (nearly) stopped backs away when the way out is behind it,
+    # instead of turning on the spot first; one that drives on turns while it drives.
+    direction = 1.0
+    if threat >= 0 and abs(error) > 0.5 * math.pi and m[R_LAST_V] < REVERSE_BELOW:
+        direction = -1.0
+        error = wrap_angle(error + math.pi)
     omega = min(max(a[A_K_S] * error, -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
     # 4. speed
     v = a[A_V_MAX]
@@ -374,12 +391,13 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if a[A_SPEED_POLICY] != 0.0:
         # able to stop before the first static obstacle ahead, and (the robot may turn towards any of them)
         # before the nearest static one; a moving obstacle being evaded does not slow the robot down
-        ahead = ray_clearance(x, y, math.cos(yaw), math.sin(yaw), positions, radii, robot_radius, a[A_RHO_O] * 4.0,
-                              moving, threat >= 0)
-        room = min(ahead, nearest_static + STOP_ROOM) - a[A_SAFETY_MARGIN]
+        ahead = ray_clearance(x, y, direction * math.cos(yaw), direction * math.sin(yaw), positions, radii,
+                              robot_radius, a[A_RHO_O] * 4.0, moving, threat >= 0)
+        room = min(ahead, nearest_static) - a[A_SAFETY_MARGIN]
         v = min(v, math.sqrt(2.0 * a[A_BRAKE_DECELERATION] * max(room, 0.0)))
     else:
         v = min(v, a[A_V_MAX] * max(min(nearest_d, a[A_RHO_O]), 0.0) / a[A_RHO_O])  # eq. 28
+    v *= direction
     arrived = False
     if distance <= a[A_CAPTURE_RADIUS]:
         if moving_target:
@@ -395,8 +413,10 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if not arrived:
         if not moving_target:
             v = min(v, a[A_APPROACH_GAIN] * distance)
+        m[R_STALLED] = 0.0
         if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
             mode = STUCK
+            m[R_STALLED] = 1.0  # the next step follows the boundary, if there is one
     # 5. the safety filter, then the acceleration limits' memory
     binding = -1
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
