@@ -5,7 +5,7 @@ N ?= 100
 PERTURB ?= 0
 RUN := tools/run.sh
 
-.PHONY: all setup test test-long unit e2e demo montecarlo bench lint clean
+.PHONY: all setup test test-long unit e2e demo montecarlo suite bench lint clean
 all: setup
 
 setup:
@@ -28,6 +28,10 @@ demo: setup
 
 montecarlo: setup
 	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
+
+SUITE_N ?= 1000
+suite: setup
+	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(SUITE_ARGS)
 
 BENCH_OUT ?= benchmarks/results
 bench: setup

@@ -19,6 +19,7 @@ setup(
     entry_points={
         "console_scripts": [
             "montecarlo = twbr_batch.montecarlo:main",
+            "suite = twbr_batch.suite:main",
         ],
     },
 )

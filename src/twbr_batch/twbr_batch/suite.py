@@ -1,0 +1,328 @@
+"""suite: the paper's navigation scenarios and our hard suite, for both planner methods, on the batch engine.
+
+    python -m twbr_batch.suite -n 1000                 # or: make suite N=1000
+    python -m twbr_batch.suite -n 200 --ablation       # the robust method with each addition off in turn
+
+Every scenario of config/scenarios/suite and the paper's three navigation scenarios run for n seeds (each
+seed its own layout where the scenario varies, its own target turns) with a 120 s limit. Every run is
+classified (avoidability.classify): success, a collision (avoidable or not, computed from the state at
+detection), a fall, trapped, outrun or late. Writes <out>/runs.csv (one row per run), table.md and
+summary.json (one row per scenario and method), and figures/<scenario>.png (the field and the first
+seeds' paths of each method).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twbr_batch.avoidability import OUTCOMES, Limits, classify, collision_avoidable
+from twbr_batch.batch import (
+    PLANNER_RATE,
+    Z_COLLISIONS,
+    Z_DETECTED,
+    Z_FALLEN,
+    Z_FINAL_DISTANCE,
+    Z_HIT_OBSTACLE,
+    Z_MIN_CLEARANCE,
+    Z_PITCH_SETTLED,
+    Z_REACHED_AT,
+    Z_SIM_TIME,
+    Z_STUCK_AT_END,
+    Z_STUCK_STEPS,
+    run_batch,
+)
+from twbr_common.params import ConfigError, defaults, validate_all
+from twbr_planner.planner_params import APF_SPECS, METHODS, check_consistent
+from twbr_sim.robot_params import robot_params
+from twbr_sim.scenario import load_scenario, vary
+from twbr_sim.scenario_files import scenario_dirs
+
+PAPER_SCENARIOS = ("static", "dynamic_target", "dynamic_obstacles")
+TIME_LIMIT = 120.0  # [s]
+CHUNK = 250
+TRACED_SEEDS = 5  # paths drawn per scenario and method
+# The ablation: the robust method with one addition switched off, by the parameter values that do it.
+ABLATIONS: dict[str, dict[str, Any]] = {
+    "robust": {},
+    "no goal fade": {"goal_fade": 0.0},
+    "no boundary following": {"follow_range": 0.0},
+    "no dynamic repulsion": {"evade_horizon": 0.0},
+    "no speed policy": {"speed_policy": False},
+    "no safety filter": {"safety_filter": False},
+}
+
+
+@dataclass(frozen=True)
+class SuiteRow:
+    """One run: a row of runs.csv."""
+
+    scenario: str
+    variant: str  # the method, or the ablation's name
+    seed: int
+    outcome: str  # avoidability.OUTCOMES
+    time_to_reach_s: float | None
+    collisions: int
+    hit_obstacle_id: int  # the first collision's obstacle, -1 none
+    min_clearance_m: float | None
+    fallen: bool
+    stuck_time_s: float
+    pitch_abs_max_settled_rad: float  # after the first 2 s
+    final_distance_m: float
+    sim_time_s: float
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "success"
+
+
+COLUMNS = tuple(f.name for f in fields(SuiteRow))
+
+
+def suite_scenarios() -> list[Path]:
+    """The paper's navigation scenarios, then the suite's (config/scenarios/suite), by name."""
+    found: dict[str, Path] = {}
+    for d in reversed(scenario_dirs()):  # the checkout's files over the installed ones
+        for name in PAPER_SCENARIOS:
+            if (d / f"{name}.yaml").is_file():
+                found[name] = d / f"{name}.yaml"
+        for path in sorted((d / "suite").glob("*.yaml")):
+            found[path.stem] = path
+    if not found:
+        raise ConfigError("suite: no scenarios found (is twbr_config installed?)")
+    paper = [found[n] for n in PAPER_SCENARIOS if n in found]
+    return paper + [p for n, p in sorted(found.items()) if n not in PAPER_SCENARIOS]
+
+
+def planner_settings(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **overrides}))
+
+
+def robot_limits(planner: Mapping[str, Any]) -> Limits:
+    """What the robot is allowed to do, as the run's planner was: the bounds of the avoidability check."""
+    braking = planner["brake_deceleration"] if planner["method"] == "robust" else planner["max_acceleration"]
+    return Limits(planner["v_max"], planner["max_acceleration"], braking, planner["max_yaw_rate"],
+                  planner["max_yaw_acceleration"])
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequence[int]) -> list[SuiteRow]:
+    """Runs of one scenario with one planner variant, classified."""
+    scenario = load_scenario(path)
+    cfg = planner_settings(planner)
+    limits = robot_limits(cfg)
+    robot_radius = cfg["robot_radius"]
+    table = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
+                      duration=TIME_LIMIT).table
+    moving_target = scenario.target is not None and scenario.target.speed > 0.0
+    rows = []
+    for seed, z in zip(seeds, table, strict=True):
+        collided = z[Z_COLLISIONS] > 0
+        hit = int(z[Z_HIT_OBSTACLE])
+        avoidable = None
+        hit_id = -1
+        if collided and hit >= 0:
+            obstacle = vary(scenario, seed).obstacles[hit]
+            hit_id = obstacle.id
+            t, x, y, yaw, speed, yaw_rate = z[Z_DETECTED:Z_DETECTED + 6]
+            avoidable = collision_avoidable((x, y, yaw, speed, yaw_rate),
+                                            (obstacle.x + obstacle.vx * t, obstacle.y + obstacle.vy * t,
+                                             obstacle.vx, obstacle.vy), obstacle.radius, robot_radius, limits)
+        reached = not math.isnan(z[Z_REACHED_AT])
+        rows.append(SuiteRow(
+            scenario=scenario.name, variant=variant, seed=seed,
+            outcome=classify(reached, collided, avoidable, bool(z[Z_FALLEN]), bool(z[Z_STUCK_AT_END]),
+                             moving_target),
+            time_to_reach_s=_finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]), hit_obstacle_id=hit_id,
+            min_clearance_m=_finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
+            stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),
+            final_distance_m=float(z[Z_FINAL_DISTANCE]), sim_time_s=float(z[Z_SIM_TIME]),
+        ))
+    return rows
+
+
+def summarise(rows: Sequence[SuiteRow]) -> dict[str, Any]:
+    """One scenario and variant: success, each outcome's count, time to reach and clearance."""
+    n = len(rows)
+    reach = np.array([r.time_to_reach_s for r in rows if r.time_to_reach_s is not None and r.succeeded])
+    clearance = [r.min_clearance_m for r in rows if r.min_clearance_m is not None]
+    return {
+        "runs": n,
+        "success_rate": sum(r.succeeded for r in rows) / n,
+        **{outcome: sum(r.outcome == outcome for r in rows) for outcome in OUTCOMES},
+        "collided": sum(r.collisions > 0 for r in rows),
+        "stuck": sum(r.stuck_time_s > 0 for r in rows),
+        "time_to_reach_median_s": float(np.median(reach)) if len(reach) else None,
+        "time_to_reach_p95_s": float(np.percentile(reach, 95)) if len(reach) else None,
+        "min_clearance_m": min(clearance) if clearance else None,
+        "pitch_abs_max_settled_rad": max(r.pitch_abs_max_settled_rad for r in rows),
+    }
+
+
+def _cell(value: Any, fmt: str = "{:.1f}") -> str:
+    return "–" if value is None else fmt.format(value)
+
+
+def markdown_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], variants: Sequence[str]) -> str:
+    """One row per scenario and variant."""
+    lines = ["| scenario | planner | success | collisions (avoidable / not) | falls | trapped | outrun | late |"
+             " runs with time stuck | time to reach median / p95 [s] | min clearance [m] | max abs pitch after 2 s"
+             " [rad] |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for scenario, by_variant in summary.items():
+        for variant in variants:
+            s = by_variant.get(variant)
+            if s is None:
+                continue
+            lines.append(
+                f"| {scenario} | {variant} | {100 * s['success_rate']:.1f} % | {s['collided']}"
+                f" ({s['collision_avoidable']} / {s['collision_unavoidable']}) | {s['fall']} | {s['trapped']} |"
+                f" {s['outrun']} | {s['late']} | {s['stuck']} | {_cell(s['time_to_reach_median_s'])} /"
+                f" {_cell(s['time_to_reach_p95_s'])} | {_cell(s['min_clearance_m'], '{:.2f}')} |"
+                f" {s['pitch_abs_max_settled_rad']:.4f} |")
+    return "\n".join(lines) + "\n"
+
+
+def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: Path) -> None:
+    """The field of the first seed's layout at t = 0 and the first seeds' paths of each variant."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from twbr_planner.apf import Obstacles, potential
+
+    scenario = load_scenario(path)
+    seeds = list(range(1, TRACED_SEEDS + 1))
+    fig, axes = plt.subplots(1, len(variants), figsize=(6.5 * len(variants), 6), squeeze=False)
+    for ax, (variant, planner) in zip(axes[0], variants.items(), strict=True):
+        cfg = planner_settings(planner)
+        result = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
+                           duration=TIME_LIMIT, record=True)
+        layout = vary(scenario, seeds[0])
+        xs = [layout.start_x] + [o.x for o in layout.obstacles] + ([layout.target.x] if layout.target else [])
+        ys = [layout.start_y] + [o.y for o in layout.obstacles] + ([layout.target.y] if layout.target else [])
+        paths = [result.trace(i) for i in range(len(seeds))]
+        xs += [float(v) for p in paths for v in (p["x_c"].min(), p["x_c"].max())]
+        ys += [float(v) for p in paths for v in (p["y_c"].min(), p["y_c"].max())]
+        lo_x, hi_x, lo_y, hi_y = min(xs) - 2, max(xs) + 2, min(ys) - 2, max(ys) + 2
+        gx, gy = np.meshgrid(np.linspace(lo_x, hi_x, 160), np.linspace(lo_y, hi_y, 160))
+        obstacles = Obstacles.of([(o.id, o.x, o.y, o.radius) for o in layout.obstacles])
+        field_cfg = dict(cfg)
+        if cfg["method"] == "robust":
+            field_cfg["rho_o"] = cfg["repulsion_range"]  # the range the robust repulsion acts within
+        u = potential(np.stack([gx, gy], axis=-1), np.array([layout.target.x, layout.target.y]), obstacles, field_cfg)
+        ax.contourf(gx, gy, np.log1p(u), levels=30, cmap="viridis", alpha=0.8)
+        for o in layout.obstacles:
+            ax.add_patch(plt.Circle((o.x, o.y), o.radius, color="0.3", alpha=0.7))
+            if o.vx or o.vy:
+                ax.arrow(o.x, o.y, 3 * o.vx, 3 * o.vy, width=0.05, color="orange")
+        for i, p in enumerate(paths):
+            ax.plot(p["x_c"], p["y_c"], lw=1.2, color=plt.cm.autumn(i / max(1, len(paths) - 1)),
+                    label=f"seed {seeds[i]}" if i < 3 else None)
+        ax.plot(layout.target.x, layout.target.y, "r*", ms=14)
+        ax.plot(layout.start_x, layout.start_y, "wo", ms=6)
+        ax.set_xlim(lo_x, hi_x)
+        ax.set_ylim(lo_y, hi_y)
+        ax.set_aspect("equal")
+        ax.set_title(f"{scenario.name}: {variant} (field and obstacles of seed 1 at t = 0)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]], paths: Iterable[Path],
+              figures: bool = True, progress: bool = True) -> dict[str, Any]:
+    """Every scenario for every variant; rows appended to runs.csv as each chunk ends."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    seeds = list(range(1, runs + 1))
+    summary: dict[str, dict[str, Any]] = {}
+    started = time.monotonic()
+    with (out_dir / "runs.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        for path in paths:
+            name = path.stem
+            summary[name] = {}
+            for variant, planner in variants.items():
+                rows: list[SuiteRow] = []
+                for k in range(0, len(seeds), CHUNK):
+                    chunk = run_rows(path, variant, planner, seeds[k:k + CHUNK])
+                    writer.writerows(_csv(r) for r in chunk)
+                    f.flush()
+                    rows += chunk
+                summary[name][variant] = summarise(rows)
+                if progress:
+                    s = summary[name][variant]
+                    print(f"suite: {name:26s} {variant:22s} success {100 * s['success_rate']:5.1f} %"
+                          f" ({time.monotonic() - started:.0f} s)", file=sys.stderr, flush=True)
+            if figures:
+                (out_dir / "figures").mkdir(exist_ok=True)
+                scenario_figure(path, {v: variants[v] for v in list(variants)[:2]}, out_dir / "figures" / f"{name}.png")
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    (out_dir / "table.md").write_text(markdown_table(summary, list(variants)))
+    return summary
+
+
+def _csv(row: SuiteRow) -> dict[str, str]:
+    def text(value: Any) -> str:
+        if value is None:
+            return ""
+        return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+    return {k: text(v) for k, v in asdict(row).items()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="suite", description=__doc__.split("\n\n")[0])
+    ap.add_argument("-n", "--runs", type=int, default=1000, help="seeds per scenario and method (default 1000)")
+    ap.add_argument("--methods", default=",".join(METHODS), help="planner methods, comma-separated (default: both)")
+    ap.add_argument("--ablation", action="store_true",
+                    help="the robust method with each addition switched off in turn, instead of the methods")
+    ap.add_argument("--scenarios", help="only these scenarios (names, comma-separated)")
+    ap.add_argument("--out", type=Path, default=Path("runs") / "suite")
+    ap.add_argument("--no-figures", action="store_true")
+    opts = ap.parse_args(argv)
+    try:
+        if opts.runs < 1:
+            raise ConfigError(f"invalid --runs {opts.runs}: must be at least 1")
+        if opts.ablation:
+            variants = {name: {"method": "robust", **overrides} for name, overrides in ABLATIONS.items()}
+        else:
+            methods = [m.strip() for m in opts.methods.split(",") if m.strip()]
+            unknown = [m for m in methods if m not in METHODS]
+            if unknown or not methods:
+                raise ConfigError(f"invalid --methods {opts.methods!r}: must be some of {', '.join(METHODS)}")
+            variants = {m: {"method": m} for m in methods}
+        paths = suite_scenarios()
+        if opts.scenarios:
+            wanted = [s.strip() for s in opts.scenarios.split(",")]
+            known = {p.stem for p in paths}
+            missing = [s for s in wanted if s not in known]
+            if missing:
+                raise ConfigError(f"invalid --scenarios: {', '.join(missing)} not in the suite ({', '.join(sorted(known))})")
+            paths = [p for p in paths if p.stem in wanted]
+    except ConfigError as e:
+        print(f"suite: {e}", file=sys.stderr)
+        return 2
+    print(f"suite: {len(paths)} scenarios x {len(variants)} planners x {opts.runs} seeds -> {opts.out}", flush=True)
+    summary = run_suite(opts.out, opts.runs, variants, paths, figures=not opts.no_figures)
+    print(markdown_table(summary, list(variants)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
