@@ -89,9 +89,9 @@ A_SAFETY_LOOKAHEAD = SETTINGS_LAYOUT["safety_lookahead"]
 A_BRAKE_DECELERATION = SETTINGS_LAYOUT["brake_deceleration"]
 # Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
-# it began, and whether the last step found no progress).
+# it began, whether the last step found no progress, and the side of the last way round).
 MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length", "following",
-                        "follow_side", "hit_distance", "follow_since", "stalled"))
+                        "follow_side", "hit_distance", "follow_since", "stalled", "way_side"))
 R_HAS_LAST = MEMORY_LAYOUT["has_last"]
 R_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 R_LAST_V = MEMORY_LAYOUT["last_v"]
@@ -103,6 +103,7 @@ R_FOLLOW_SIDE = MEMORY_LAYOUT["follow_side"]
 R_HIT_DISTANCE = MEMORY_LAYOUT["hit_distance"]
 R_FOLLOW_SINCE = MEMORY_LAYOUT["follow_since"]
 R_STALLED = MEMORY_LAYOUT["stalled"]
+R_WAY_SIDE = MEMORY_LAYOUT["way_side"]
 N_MEMORY = len(MEMORY_LAYOUT)
 PROGRESS_COLUMNS = 4  # (t, distance, x, y) per planning step
 # Output vector of one step.

@@ -94,6 +94,7 @@ from twbr_planner.apf import (
     R_LAST_V,
     R_LENGTH,
     R_STALLED,
+    R_WAY_SIDE,
     STUCK,
     TRACKING,
     _attractive,
@@ -104,6 +105,9 @@ from twbr_planner.apf import (
 )
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
+FREE_STEER = 1.0  # on a free way the repulsion is at most this fraction of the attraction
+FAN_STEP = math.pi / 12  # [rad] between the directions tried for a way round
+FAN_STEPS = 5  # on each side: up to 75 degrees from the target's direction
 FOLLOW_GAIN = 2.0  # [1/m] how hard boundary following corrects its distance to the boundary
 LEAVE_PROGRESS = 0.2  # [m] boundary following ends this much closer to the target than it began
 FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leaving turns to the other side
@@ -317,13 +321,43 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     reach_goal = distance
     blocked_at = ray_clearance(x, y, gx, gy, positions, radii, robot_radius + FREE_MARGIN, reach_goal, moving, False)
     free = blocked_at >= reach_goal
-    if free:
-        along = f_rep_x * gx + f_rep_y * gy
-        if along < 0.0:  # the way is free: the repulsion steers, it does not hold the robot back
-            f_rep_x -= along * gx
-            f_rep_y -= along * gy
-    total_x = f_att_x + f_rep_x
-    total_y = f_att_y + f_rep_y
+    # A way round: when the straight way is blocked within the detection range, the free direction nearest
+    # the target's within the fan (the side taken last first) carries the attraction instead (a virtual
+    # target on it), so that a gap beside the straight line is taken.
+    look = min(reach_goal, a[A_RHO_O])
+    way_x = gx
+    way_y = gy
+    way_free = free or blocked_at >= look
+    if not way_free:
+        angle = math.atan2(gy, gx)
+        first = m[R_WAY_SIDE] if m[R_WAY_SIDE] != 0.0 else 1.0
+        for k in range(1, FAN_STEPS + 1):
+            for turn in range(2):
+                sign = first if turn == 0 else -first
+                ux = math.cos(angle + sign * k * FAN_STEP)
+                uy = math.sin(angle + sign * k * FAN_STEP)
+                if ray_clearance(x, y, ux, uy, positions, radii, robot_radius + FREE_MARGIN, look, moving,
+                                 False) >= look:
+                    way_x = ux
+                    way_y = uy
+                    way_free = True
+                    m[R_WAY_SIDE] = sign
+                    break
+            if way_free:
+                break
+    if way_free:
+        # The way is free: the repulsion steers (at most FREE_STEER of the attraction, 45 degrees), it
+        # neither holds the robot back nor turns it away from a target it can drive to.
+        along = f_rep_x * way_x + f_rep_y * way_y
+        if along < 0.0:
+            f_rep_x -= along * way_x
+            f_rep_y -= along * way_y
+        ratio = math.hypot(f_rep_x, f_rep_y) / max(att_norm, 1e-12)
+        if ratio > FREE_STEER:
+            f_rep_x *= FREE_STEER / ratio
+            f_rep_y *= FREE_STEER / ratio
+    total_x = att_norm * way_x + f_rep_x
+    total_y = att_norm * way_y + f_rep_y
     mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
     # 2. boundary following out of a local minimum
     side = 0.0
@@ -331,10 +365,9 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if a[A_FOLLOW_RANGE] > 0.0:
         if m[R_FOLLOWING] != 0.0:
             elapsed = stamp - m[R_FOLLOW_SINCE]
-            # TangentBug's leave rule: closer than where following began, and the way ahead towards the
-            # target free for the detection range (what lies beyond is met as it comes)
-            clear_ahead = min(blocked_at, reach_goal) >= min(reach_goal, a[A_RHO_O])
-            if clear_ahead and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
+            # TangentBug's leave rule: closer than where following began, and a free way towards the target
+            # for the detection range (what lies beyond is met as it comes)
+            if way_free and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
                 m[R_FOLLOWING] = 0.0
             elif near_boundary == math.inf:
                 m[R_FOLLOWING] = 0.0  # lost the boundary: back to the field
@@ -343,8 +376,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
                 m[R_FOLLOW_SINCE] = stamp
                 m[R_HIT_DISTANCE] = distance
         elif near_boundary < math.inf and (
-                (not free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius)  # the way is blocked close by
-                or total_x * gx + total_y * gy < 0.0  # or the field pushes away from the target: a basin
+                (not way_free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius)  # no way, blocked close by
+                or total_x * way_x + total_y * way_y < 0.0  # or the field pushes away from the way: a basin
                 or m[R_STALLED] != 0.0):  # or the progress detector found none
             m[R_FOLLOWING] = 1.0
             m[R_HIT_DISTANCE] = distance
