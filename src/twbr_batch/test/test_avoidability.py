@@ -57,6 +57,7 @@ def test_the_limits_matter():
     ((False, False, None, False, True, False), "trapped"),
     ((False, False, None, False, False, True), "outrun"),
     ((False, False, None, False, False, False), "late"),
+    ((False, False, None, False, False, False, 0.3), "trapped"),
 ])
 def test_each_outcome_has_one_cause(args, outcome):
     assert classify(*args) == outcome

@@ -45,6 +45,26 @@ def test_batch_trajectories_equal_the_scalar_cores(name):
             assert z[batch.Z_REACHED_AT] == pytest.approx(row.time_to_reach_s, abs=1e-12)
 
 
+@pytest.mark.parametrize("name", ["dynamic_obstacles", "suite/head_on", "suite/trap_small", "suite/gap_1m"])
+def test_the_robust_planner_runs_the_same_in_the_batch_and_on_the_scalar_cores(name):
+    # Its boundary following, evasion and safety filter are one compiled implementation too; varied layouts
+    # (suite scenarios) are each seed's in both.
+    path = find_scenario(name)
+    planner = {"method": "robust"}
+    seeds = [1, 2]
+    result = batch.run_batch(load_scenario(path), seeds, np.tile(robot_params(), (2, 1)), planner=planner,
+                             record=True)
+    for i, seed in enumerate(seeds):
+        row, trace = mc.run_one_traced(str(path), seed, 0.0, planner=planner)
+        got = result.trace(i)
+        assert len(got["t"]) == len(trace.t), f"{name} seed {seed}: run lengths differ"
+        for column, field in COMPARED:
+            np.testing.assert_allclose(got[column], trace[field], **TOL, err_msg=f"{name} seed {seed} {column}")
+        np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
+        assert result.table[i, batch.Z_COLLISIONS] == row.collisions
+        assert row.reached  # the robust method reaches these targets
+
+
 def test_the_runs_are_not_all_alike():
     # Guards the comparison above against a world that ignores the seed or a robot that ignores its
     # parameters: seeds move the target differently and a perturbed robot leans differently.

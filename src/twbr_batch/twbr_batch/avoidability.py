@@ -112,16 +112,20 @@ def collision_avoidable(robot: tuple[float, float, float, float, float], obstacl
 OUTCOMES = ("success", "collision_avoidable", "collision_unavoidable", "fall", "trapped", "outrun", "late")
 
 
+TRAPPED_SHARE = 0.25  # a run that missed its target with the planner stuck this share of the time was trapped
+
+
 def classify(reached: bool, collided: bool, avoidable: bool | None, fallen: bool, stuck_at_end: bool,
-             moving_target: bool) -> str:
+             moving_target: bool, stuck_share: float = 0.0) -> str:
     """One run's outcome: success, or why it failed (a collision first, then a fall, then the way it missed
-    the target: trapped in a local minimum, outrun by a moving target, or late on its way)."""
+    the target: trapped in a local minimum (stuck at the end, or a quarter of the run), outrun by a moving
+    target, or late on its way)."""
     if collided:
         return "collision_avoidable" if avoidable else "collision_unavoidable"
     if fallen:
         return "fall"
     if reached:
         return "success"
-    if stuck_at_end:
+    if stuck_at_end or stuck_share >= TRAPPED_SHARE:
         return "trapped"
     return "outrun" if moving_target else "late"

@@ -26,7 +26,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, fields
 from datetime import datetime
@@ -159,8 +159,9 @@ def run_one(scenario_path: str, seed: int, perturbation: float) -> StudyRow:
     return run_one_traced(scenario_path, seed, perturbation)[0]
 
 
-def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[StudyRow, Any]:
-    """run_one, and the run's closed_loop.Trace."""
+def run_one_traced(scenario_path: str, seed: int, perturbation: float,
+                   planner: Mapping[str, Any] | None = None) -> tuple[StudyRow, Any]:
+    """run_one, and the run's closed_loop.Trace; `planner`: planner parameters other than the defaults."""
     from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode
 
@@ -168,7 +169,7 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float) -> tuple[
     factors = perturbation_factors(seed, perturbation)
     robot = perturbed_robot(factors)
     planner_log: list = []
-    plan = planner_reference(rate=PLANNER_RATE, log=planner_log)
+    plan = planner_reference(planner, rate=PLANNER_RATE, log=planner_log)
     command = scenario_reference(scenario)
     world = {"reached_at": None, "min_clearance": math.inf, "collisions": 0}
     world_due = Decimator(WORLD_RATE)

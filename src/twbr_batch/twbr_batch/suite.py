@@ -46,7 +46,7 @@ from twbr_common.params import ConfigError, defaults, validate_all
 from twbr_planner.planner_params import APF_SPECS, METHODS, check_consistent
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario, vary
-from twbr_sim.scenario_files import scenario_dirs
+from twbr_sim.scenario_files import find_scenario, suite_names
 
 PAPER_SCENARIOS = ("static", "dynamic_target", "dynamic_obstacles")
 TIME_LIMIT = 120.0  # [s]
@@ -91,17 +91,8 @@ COLUMNS = tuple(f.name for f in fields(SuiteRow))
 
 def suite_scenarios() -> list[Path]:
     """The paper's navigation scenarios, then the suite's (config/scenarios/suite), by name."""
-    found: dict[str, Path] = {}
-    for d in reversed(scenario_dirs()):  # the checkout's files over the installed ones
-        for name in PAPER_SCENARIOS:
-            if (d / f"{name}.yaml").is_file():
-                found[name] = d / f"{name}.yaml"
-        for path in sorted((d / "suite").glob("*.yaml")):
-            found[path.stem] = path
-    if not found:
-        raise ConfigError("suite: no scenarios found (is twbr_config installed?)")
-    paper = [found[n] for n in PAPER_SCENARIOS if n in found]
-    return paper + [p for n, p in sorted(found.items()) if n not in PAPER_SCENARIOS]
+    names = [*PAPER_SCENARIOS, *(f"suite/{name}" for name in suite_names())]
+    return [find_scenario(name) for name in names]
 
 
 def planner_settings(overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -145,7 +136,7 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
         rows.append(SuiteRow(
             scenario=scenario.name, variant=variant, seed=seed,
             outcome=classify(reached, collided, avoidable, bool(z[Z_FALLEN]), bool(z[Z_STUCK_AT_END]),
-                             moving_target),
+                             moving_target, z[Z_STUCK_STEPS] / PLANNER_RATE / max(z[Z_SIM_TIME], 1e-9)),
             time_to_reach_s=_finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]), hit_obstacle_id=hit_id,
             min_clearance_m=_finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),

@@ -106,8 +106,8 @@ from twbr_planner.apf import (
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
 FREE_STEER = 1.0  # on a free way the repulsion is at most this fraction of the attraction
-FAN_STEP = math.pi / 12  # [rad] between the directions tried for a way round
-FAN_STEPS = 5  # on each side: up to 75 degrees from the target's direction
+FAN_STEP = math.pi / 24  # [rad] between the directions tried for a way round
+FAN_STEPS = 10  # on each side: up to 75 degrees from the target's direction
 FOLLOW_GAIN = 2.0  # [1/m] how hard boundary following corrects its distance to the boundary
 LEAVE_PROGRESS = 0.2  # [m] boundary following ends this much closer to the target than it began
 FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leaving turns to the other side

@@ -1,0 +1,142 @@
+"""The robust method's additions, each on a case whose answer is known without running the robot."""
+
+import math
+
+import numpy as np
+import pytest
+
+from twbr_common.params import defaults
+from twbr_planner import apf
+from twbr_planner.apf import Mode, Obstacles
+from twbr_planner.planner import ApfPlanner, Target
+from twbr_planner.planner_params import APF_SPECS
+from twbr_planner.robust import evasion, ray_clearance, safety_filter
+
+ROBUST = {**defaults(APF_SPECS), "method": "robust"}
+PAPER = {**defaults(APF_SPECS), "method": "paper"}
+A = apf.settings_vector(ROBUST)
+
+
+def settled(planner: ApfPlanner, x, y, yaw, speed, target, obstacles, steps=60):
+    """Plan `steps` times from the same state (the command's rate limits settle), the last output."""
+    out = None
+    for k in range(steps):
+        out = planner.step(0.05 * k, x, y, yaw, speed, target, obstacles)
+    return out
+
+
+def test_ray_clearance_is_the_distance_to_the_inflated_disc():
+    positions = np.array([[5.0, 0.0], [2.0, 3.0]])
+    radii = np.array([1.0, 0.5])
+    still = np.zeros(2, dtype=np.bool_)
+    assert ray_clearance(0.0, 0.0, 1.0, 0.0, positions, radii, 0.3, 100.0, still, False) == pytest.approx(3.7)
+    assert ray_clearance(0.0, 0.0, -1.0, 0.0, positions, radii, 0.3, 100.0, still, False) == 100.0  # behind
+    assert ray_clearance(0.0, 0.0, 1.0, 0.0, positions, radii, 0.3, 2.0, still, False) == 2.0  # beyond reach
+    moving = np.array([True, False])
+    assert ray_clearance(0.0, 0.0, 1.0, 0.0, positions, radii, 0.3, 100.0, moving, True) == 100.0
+
+
+def test_a_target_next_to_an_obstacle_is_approached_by_robust_and_held_off_by_paper():
+    # Target 0.6 m from the surface of a disc, the robot 1.2 m from the target on the far side of it from
+    # the disc: the paper's repulsion there outweighs the attraction; the robust one fades at the target.
+    disc = Obstacles.of([(1, 0.0, 0.0, 1.0)])
+    target = Target(1.6, 0.0, 0.0, 0.0)
+    robust = settled(ApfPlanner(ROBUST), 2.8, 0.0, math.pi, 0.2, target, disc)
+    paper = settled(ApfPlanner(PAPER), 2.8, 0.0, math.pi, 0.2, target, disc)
+    assert abs(robust.heading_error) < 0.1 and robust.velocity_cmd > 0.05  # heads for it
+    assert abs(paper.desired_heading) < 0.5  # pushed away from it, back the way it came
+
+
+def test_a_gap_the_robot_fits_through_is_taken_on_a_free_way():
+    # Two discs 1.0 m apart (surface to surface), target straight through: the robust field heads through.
+    gap = Obstacles.of([(1, 2.0, 0.9, 0.4), (2, 2.0, -0.9, 0.4)])
+    target = Target(5.0, 0.0, 0.0, 0.0)
+    out = settled(ApfPlanner(ROBUST), 0.8, 0.0, 0.0, 0.2, target, gap)
+    assert out.mode in (Mode.AVOIDING, Mode.TRACKING) and abs(out.desired_heading) < 0.05
+    assert out.velocity_cmd > 0.0
+
+
+# A wall of discs 6 m long across the way, 0.3 m from the footprint; the target behind it, to the left.
+WALL = Obstacles.of([(k, 2.0, -3.0 + 0.5 * k, 0.4) for k in range(13)])
+
+
+def test_a_blocked_way_starts_boundary_following_on_the_side_nearer_the_target():
+    # No direction within 75 degrees of the target's is free for the detection range: follow the wall, on
+    # the side nearer the target's direction.
+    out = settled(ApfPlanner(ROBUST), 1.0, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0), WALL, steps=3)
+    assert out.mode is Mode.ESCAPING and out.escape_side != 0
+    assert out.desired_heading > 1.0  # along the wall, to the left
+    mirrored = Obstacles.of([(k, 2.0, 3.0 - 0.5 * k, 0.4) for k in range(13)])
+    out = settled(ApfPlanner(ROBUST), 1.0, 0.0, 0.0, 0.0, Target(6.0, -0.5, 0.0, 0.0), mirrored, steps=3)
+    assert out.desired_heading < -1.0
+
+
+def test_boundary_following_is_off_when_follow_range_is_zero():
+    out = settled(ApfPlanner({**ROBUST, "follow_range": 0.0}), 1.0, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0),
+                  WALL, steps=3)
+    assert out.mode is not Mode.ESCAPING and out.escape_side == 0
+
+
+def test_evasion_steps_out_of_the_path_on_the_robots_side():
+    positions = np.array([[8.0, 0.3]])
+    radii = np.array([0.5])
+    velocities = np.array([[-1.0, 0.0]])  # head-on, its path 0.3 m to the robot's left
+    ex, ey, threat = evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii)
+    assert threat == 0 and ey < 0.0 and ex == pytest.approx(0.0, abs=1e-12)  # to the right, away from it
+    ex, ey, threat = evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, -0.3]]), velocities, radii)
+    assert ey > 0.0
+    # One that passes wide, or is far in time, or goes away, is no threat.
+    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, 3.0]]), velocities, radii)[2] == -1
+    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[80.0, 0.0]]), velocities, radii)[2] == -1
+    assert evasion(A, 0.0, 0.0, 0.0, 0.0, np.array([[3.0, 0.0]]), np.array([[1.0, 0.0]]), radii)[2] == -1
+    off = apf.settings_vector({**ROBUST, "evade_horizon": 0.0})
+    assert evasion(off, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii)[2] == -1
+
+
+def test_the_safety_filter_keeps_the_nominal_command_when_it_is_admissible():
+    m = np.zeros(apf.N_MEMORY)
+    m[apf.R_HAS_LAST] = 1.0
+    m[apf.R_LAST_V] = 0.3
+    positions = np.array([[10.0, 0.0]])
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.1, positions, np.zeros((1, 2)), np.array([0.5]))
+    assert (v, w, binding) == (0.3, pytest.approx(0.05), -1)  # the yaw rate only by its acceleration limit
+
+
+def test_the_safety_filter_brakes_or_turns_before_a_disc_it_would_reach():
+    # Driving at 0.3 m/s straight at a disc whose surface is 0.2 m from the footprint: the barrier
+    # (dh/dt + gamma h >= 0 on the look-ahead point) asks for less speed towards it, or a turn.
+    m = np.zeros(apf.N_MEMORY)
+    m[apf.R_HAS_LAST] = 1.0
+    m[apf.R_LAST_STAMP] = 0.0
+    m[apf.R_LAST_V] = 0.3
+    positions = np.array([[1.0, 0.0]])
+    radii = np.array([0.5])
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.0, positions, np.zeros((1, 2)), radii)
+    assert binding == 0
+    assert v < 0.3 or abs(w) > 0.0
+    assert v >= 0.3 - ROBUST["brake_deceleration"] * 0.05 - 1e-12  # within one period's braking
+
+
+def test_the_robust_speed_brakes_no_harder_than_brake_deceleration_and_rises_at_max_acceleration():
+    planner = ApfPlanner(ROBUST)
+    far = Target(30.0, 0.0, 0.0, 0.0)
+    v = [planner.step(0.05 * k, 0.0, 0.0, 0.0, 0.0, far, Obstacles.empty()).velocity_cmd for k in range(40)]
+    assert np.diff(v).max() <= ROBUST["max_acceleration"] * 0.05 + 1e-12
+    wall = Obstacles.of([(1, 1.6, 0.0, 0.5)])  # suddenly 0.8 m ahead of the footprint
+    after = [planner.step(0.05 * (40 + k), 0.3, 0.0, 0.0, v[-1], far, wall).velocity_cmd for k in range(10)]
+    drops = -np.diff([v[-1], *after])
+    assert drops.max() <= ROBUST["brake_deceleration"] * 0.05 + 1e-12
+    assert drops.max() > ROBUST["max_acceleration"] * 0.05  # it does brake harder than it accelerates
+
+
+def test_the_paper_method_is_unchanged_by_the_robust_parameters():
+    # The robust parameters have no effect on the paper's method: the same outputs, step by step.
+    disc = Obstacles.of([(1, 3.0, 0.2, 1.0, 0.1, -0.1)])
+    target = Target(6.0, 0.5, 0.0, 0.0)
+    odd = {**PAPER, "repulsion_range": 0.3, "goal_fade": 0.0, "follow_range": 3.0, "evade_horizon": 0.0,
+           "safety_filter": False, "speed_policy": False, "brake_deceleration": 5.0}
+    a, b = ApfPlanner(PAPER), ApfPlanner(odd)
+    for k in range(100):
+        oa = a.step(0.05 * k, 0.01 * k, 0.0, 0.0, 0.2, target, disc)
+        ob = b.step(0.05 * k, 0.01 * k, 0.0, 0.0, 0.2, target, disc)
+        assert (oa.velocity_cmd, oa.yaw_rate_cmd, oa.mode) == (ob.velocity_cmd, ob.yaw_rate_cmd, ob.mode)
