@@ -98,7 +98,8 @@ def test_the_safety_filter_keeps_the_nominal_command_when_it_is_admissible():
     m[apf.R_HAS_LAST] = 1.0
     m[apf.R_LAST_V] = 0.3
     positions = np.array([[10.0, 0.0]])
-    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.1, positions, np.zeros((1, 2)), np.array([0.5]))
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.1, positions, np.zeros((1, 2)), np.array([0.5]),
+                                  -1)
     assert (v, w, binding) == (0.3, pytest.approx(0.05), -1)  # the yaw rate only by its acceleration limit
 
 
@@ -111,7 +112,7 @@ def test_the_safety_filter_brakes_or_turns_before_a_disc_it_would_reach():
     m[apf.R_LAST_V] = 0.3
     positions = np.array([[1.0, 0.0]])
     radii = np.array([0.5])
-    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.0, positions, np.zeros((1, 2)), radii)
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1)
     assert binding == 0
     assert v < 0.3 or abs(w) > 0.0
     assert v >= 0.3 - ROBUST["brake_deceleration"] * 0.05 - 1e-12  # within one period's braking

@@ -51,8 +51,9 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " pushes the robot out of its path; 0 turns it off", "s", 0.0, 1000.0),
     ParamSpec("evade_margin", 0.4, "robust: an approach closer than this to the footprint is a threat", "m",
               0.0, 100.0),
-    ParamSpec("evade_gain", 3.0, "robust: weight of the way out of a threat's path against the field's"
-              " direction", "", 0.0, 1000.0),
+    ParamSpec("evade_gain", 1.5, "robust: safety factor on the sideways distance out of a threat's path against"
+              " the distance the robot can drive before the closest approach (their ratio, at most 1, weighs the"
+              " way out against the field's direction)", "", 0.0, 1000.0),
     ParamSpec("brake_deceleration", 0.12, "robust: the speed may fall this fast (it rises at most by"
               " max_acceleration): the speed policy and the safety filter brake with it; a balancing robot leans"
               " back about a/g to brake", "m/s²", 0.0, 100.0, low_open=True),

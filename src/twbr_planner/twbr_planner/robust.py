@@ -166,9 +166,21 @@ def boundary_normal(x, y, positions, radii, robot_radius, reach):
 
 
 @kernel
+def reachable_distance(speed, tau, acceleration, v_max):
+    """[m] the robot drives in tau [s] from `speed`, accelerating at `acceleration` up to v_max."""
+    speed = min(abs(speed), v_max)
+    t_top = (v_max - speed) / acceleration
+    if tau <= t_top:
+        return speed * tau + 0.5 * acceleration * tau * tau
+    return (v_max * v_max - speed * speed) / (2.0 * acceleration) + v_max * (tau - t_top)
+
+
+@kernel
 def evasion(a, x, y, vx, vy, positions, velocities, radii):
     """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the unit
-    normal to each one's path on the robot's side, weighted by urgency; and the most urgent one's index."""
+    normal to each one's path on the robot's side, each weighted by its urgency (the sideways distance it
+    needs, times evade_gain, over the distance the robot can drive before the closest approach, at most
+    1); and the most urgent one's index."""
     horizon = a[A_EVADE_HORIZON]
     ex = 0.0
     ey = 0.0
@@ -184,23 +196,30 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii):
             continue
         px = x - positions[j, 0]
         py = y - positions[j, 1]
-        wx = vx - ovx
-        wy = vy - ovy
-        ww = wx * wx + wy * wy
-        if ww < 1e-9:
-            continue
-        tau = -(px * wx + py * wy) / ww  # time of the closest approach
-        if tau <= 0.0 or tau > horizon:
-            continue
-        reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
-        miss = math.hypot(px + wx * tau, py + wy * tau)
-        if miss >= reach:
-            continue
         ux = ovx / speed
         uy = ovy / speed
-        side = ux * py - uy * px  # which side of the obstacle's path the robot is on
+        reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
+        # The obstacle's swept path, as if the robot stood still: when it passes the robot (tau) and how
+        # close to its centre (miss); this does not change as the robot speeds up or turns.
+        side = ux * py - uy * px  # which side of the obstacle's path the robot is on, and how far
+        tau = (px * ux + py * uy) / speed
+        miss = abs(side)
+        if tau <= 0.0 or tau > horizon or miss >= reach:
+            # Or, at the relative velocity, where the robot's own motion takes it into the obstacle's way.
+            wx = vx - ovx
+            wy = vy - ovy
+            ww = wx * wx + wy * wy
+            if ww < 1e-9:
+                continue
+            tau = -(px * wx + py * wy) / ww
+            if tau <= 0.0 or tau > horizon:
+                continue
+            miss = math.hypot(px + wx * tau, py + wy * tau)
+            if miss >= reach:
+                continue
         sign = 1.0 if side > 1e-3 else -1.0  # on the path itself: step to the path's right
-        weight = (1.0 - tau / horizon) * (reach - miss) / reach
+        drivable = reachable_distance(math.hypot(vx, vy), tau, a[A_MAX_ACCELERATION], a[A_V_MAX])
+        weight = min(1.0, a[A_EVADE_GAIN] * (reach - miss) / max(drivable, 1e-6))
         ex += weight * sign * -uy
         ey += weight * sign * ux
         if weight > urgent:
@@ -210,8 +229,11 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii):
 
 
 @kernel
-def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii):
-    """(v, omega, index of the binding obstacle or -1): the admissible command nearest the nominal one."""
+def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii, threat):
+    """(v, omega, index of the binding obstacle or -1): the admissible command nearest the nominal one.
+
+    The obstacle being evaded (`threat`, -1 none) is left to the evasion: a barrier on the distance alone
+    would steer along a fast obstacle's path (away from it, for now) instead of out of it."""
     dt = command_period(m, stamp)
     dw = a[A_MAX_YAW_ACCELERATION] * dt
     v_lo = max(m[R_LAST_V] - a[A_BRAKE_DECELERATION] * dt, -a[A_V_MAX])
@@ -232,6 +254,8 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     index = np.empty(n, dtype=np.int64)
     count = 0
     for j in range(n):
+        if j == threat:
+            continue
         rx = qx - positions[j, 0]
         ry = qy - positions[j, 1]
         reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_SAFETY_MARGIN]
@@ -405,8 +429,9 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         if towards > 0.0:
             base_x -= towards * to_x / to_norm
             base_y -= towards * to_y / to_norm
-        total_x = base_x + a[A_EVADE_GAIN] * ex
-        total_y = base_y + a[A_EVADE_GAIN] * ey
+        urgency = min(1.0, math.hypot(ex, ey))
+        total_x = (1.0 - urgency) * base_x + ex
+        total_y = (1.0 - urgency) * base_y + ey
         mode = EVADING
     alpha = math.atan2(total_y, total_x)
     error = wrap_angle(alpha - yaw)
@@ -419,8 +444,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     omega = min(max(a[A_K_S] * error, -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
     # 4. speed
     v = a[A_V_MAX]
-    if a[A_SLOW_IN_TURNS] != 0.0:
-        v *= max(0.0, math.cos(error))
+    if a[A_SLOW_IN_TURNS] != 0.0 and not (threat >= 0 and abs(error) < 0.5 * math.pi):
+        v *= max(0.0, math.cos(error))  # turn before driving, except out of a threat's path
     if a[A_SPEED_POLICY] != 0.0:
         # able to stop before the first static obstacle ahead, and (the robot may turn towards any of them)
         # before the nearest static one; a moving obstacle being evaded does not slow the robot down
@@ -453,7 +478,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     # 5. the safety filter, then the acceleration limits' memory
     binding = -1
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
-        v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii)
+        v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat)
     v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
     out[Q_F_ATT_X] = f_att_x
     out[Q_F_ATT_Y] = f_att_y
