@@ -176,11 +176,36 @@ def reachable_distance(speed, tau, acceleration, v_max):
 
 
 @kernel
+def closest_approach(a, x, y, vx, vy, position, velocity):
+    """(tau [s], miss [m], out_x, out_y): when the robot, at its velocity relative to a moving obstacle's,
+    passes it closest, how close (centre to centre), and the unit direction from the obstacle to the robot
+    then, the way that widens the miss (Ge & Cui's dynamic repulsion acts along it); tau = inf when they
+    do not approach."""
+    px = x - position[0]
+    py = y - position[1]
+    wx = vx - velocity[0]
+    wy = vy - velocity[1]
+    ww = wx * wx + wy * wy
+    if ww < 1e-9:
+        return math.inf, math.hypot(px, py), 0.0, 0.0
+    tau = -(px * wx + py * wy) / ww
+    if tau <= 0.0:
+        return math.inf, math.hypot(px, py), 0.0, 0.0
+    cx = px + wx * tau
+    cy = py + wy * tau
+    miss = math.hypot(cx, cy)
+    if miss > 1e-3:
+        return tau, miss, cx / miss, cy / miss
+    speed = math.sqrt(ww)
+    return tau, miss, wy / speed, -wx / speed  # dead on: pass it on the right of the relative motion
+
+
+@kernel
 def evasion(a, x, y, vx, vy, positions, velocities, radii):
-    """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the unit
-    normal to each one's path on the robot's side, each weighted by its urgency (the sideways distance it
-    needs, times evade_gain, over the distance the robot can drive before the closest approach, at most
-    1); and the most urgent one's index."""
+    """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the
+    direction that widens the closest approach, each weighted by its urgency (the distance the miss lacks,
+    times evade_gain, over the distance the robot can drive before the closest approach, at most 1); and
+    the most urgent one's index."""
     horizon = a[A_EVADE_HORIZON]
     ex = 0.0
     ey = 0.0
@@ -189,39 +214,16 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii):
     if horizon <= 0.0:
         return ex, ey, threat
     for j in range(radii.shape[0]):
-        ovx = velocities[j, 0]
-        ovy = velocities[j, 1]
-        speed = math.hypot(ovx, ovy)
-        if speed < 1e-3:
+        if math.hypot(velocities[j, 0], velocities[j, 1]) < 1e-3:
             continue
-        px = x - positions[j, 0]
-        py = y - positions[j, 1]
-        ux = ovx / speed
-        uy = ovy / speed
+        tau, miss, out_x, out_y = closest_approach(a, x, y, vx, vy, positions[j], velocities[j])
         reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
-        # The obstacle's swept path, as if the robot stood still: when it passes the robot (tau) and how
-        # close to its centre (miss); this does not change as the robot speeds up or turns.
-        side = ux * py - uy * px  # which side of the obstacle's path the robot is on, and how far
-        tau = (px * ux + py * uy) / speed
-        miss = abs(side)
-        if tau <= 0.0 or tau > horizon or miss >= reach:
-            # Or, at the relative velocity, where the robot's own motion takes it into the obstacle's way.
-            wx = vx - ovx
-            wy = vy - ovy
-            ww = wx * wx + wy * wy
-            if ww < 1e-9:
-                continue
-            tau = -(px * wx + py * wy) / ww
-            if tau <= 0.0 or tau > horizon:
-                continue
-            miss = math.hypot(px + wx * tau, py + wy * tau)
-            if miss >= reach:
-                continue
-        sign = 1.0 if side > 1e-3 else -1.0  # on the path itself: step to the path's right
+        if tau > horizon or miss >= reach:
+            continue
         drivable = reachable_distance(math.hypot(vx, vy), tau, a[A_MAX_ACCELERATION], a[A_V_MAX])
         weight = min(1.0, a[A_EVADE_GAIN] * (reach - miss) / max(drivable, 1e-6))
-        ex += weight * sign * -uy
-        ey += weight * sign * ux
+        ex += weight * out_x
+        ey += weight * out_y
         if weight > urgent:
             urgent = weight
             threat = j
@@ -429,6 +431,12 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         if towards > 0.0:
             base_x -= towards * to_x / to_norm
             base_y -= towards * to_y / to_norm
+        # nor so as to narrow its closest approach
+        _tau, _miss, out_x, out_y = closest_approach(a, x, y, vx, vy, positions[threat], velocities[threat])
+        inwards = base_x * out_x + base_y * out_y
+        if inwards < 0.0:
+            base_x -= inwards * out_x
+            base_y -= inwards * out_y
         urgency = min(1.0, math.hypot(ex, ey))
         total_x = (1.0 - urgency) * base_x + ex
         total_y = (1.0 - urgency) * base_y + ey
