@@ -31,6 +31,7 @@ from typing import Any
 from twbr_common.param_files import KNOWN_NODES, node_parameters
 from twbr_common.params import ConfigError, default_of
 from twbr_common.paths import config_dir
+from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
@@ -84,6 +85,7 @@ class RunOptions:
     wall_timeout: float | None = None
     figures: bool = True
     quiet: bool = False
+    planner_method: str | None = None  # None: planner.yaml's
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -94,7 +96,8 @@ def params_files(config: Path, *names: str) -> list[str]:
     return out
 
 
-def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path) -> list[NodeSpec]:
+def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
+         planner_method: str | None = None) -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
@@ -105,7 +108,8 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
     if scenario.target is not None:
-        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", params_files(config, "planner.yaml"),
+        method = ["-p", f"method:={planner_method}"] if planner_method else []
+        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", [*params_files(config, "planner.yaml"), *method],
                               recorded=("/cmd_vel", "/planner_state")))
     elif scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
@@ -276,7 +280,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
-    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir)
+    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
     (run_dir / "command.txt").write_text(" ".join(sys.argv) + "\n" + "\n".join(
         f"{n.label}: ros2 run {n.package} {n.executable} {' '.join(n.args)} --ros-args {' '.join(n.ros_args)}"
@@ -422,8 +426,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--wall-timeout", type=float, help="give up after this many wall seconds")
     ap.add_argument("--no-figures", action="store_true")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--planner-method", choices=METHODS,
+                    help="the planner's method (default: config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
-    opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet)
+    opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
+                      a.planner_method)
     try:
         code, _ = run(opts)
     except ConfigError as e:

@@ -1,0 +1,72 @@
+"""The hard suite through the node graph: each scenario for one seed with the robust planner, against the
+batch engine's run of the same seed (the same cores: the same path).
+
+The runner starts recorder, controller_node, planner_node (method robust) and sim_node as processes in
+lockstep; the seed's varied layout is built by the simulator's world exactly as the batch engine builds
+it. One representative scenario runs in `make test`; `make test-long` runs every suite scenario.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, run_batch
+from twbr_batch.suite import TIME_LIMIT
+from twbr_runner.bag_reader import read_messages
+from twbr_runner.metrics import series_from_messages
+from twbr_sim.robot_params import robot_params
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario, suite_names
+
+pytestmark = pytest.mark.e2e
+
+SEED = 1
+REPRESENTATIVE = "head_on"
+CASES = [pytest.param(name, marks=[] if name == REPRESENTATIVE else [pytest.mark.long]) for name in suite_names()]
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_path, ros_domain, name):
+    scenario_path = find_scenario(f"suite/{name}")
+    scenario = load_scenario(scenario_path)
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    done = subprocess.run(
+        [sys.executable, "-m", "twbr_runner.runner", str(scenario_path), "--out", str(tmp_path), "--domain",
+         str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--quiet", "--no-figures"],
+        env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stdout + done.stderr
+    (run_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]
+    m = json.loads((run_dir / "metrics.json").read_text())
+
+    batch = run_batch(scenario, [SEED], robot_params()[None, :], planner={"method": "robust"},
+                      duration=min(scenario.duration, TIME_LIMIT), record=True)
+    z = batch.table[0]
+    path = batch.trace(0)
+    assert m["reached"] == (not math.isnan(z[Z_REACHED_AT])), m
+    assert m["collisions"] == z[Z_COLLISIONS]
+    assert m["lockstep_timeouts"] == 0
+    if m["reached"]:
+        assert m["time_to_reach_s"] == pytest.approx(z[Z_REACHED_AT], rel=0.1)
+    gaps = []
+    # The path, each second, within 5 cm of the batch engine's for the first 15 s: the graph runs the same
+    # kernels on the same states, but the yaw it reads back from odom's quaternion (and obstacles moved to the
+    # odom stamp) differ from the batch's in the last bit, and the robust method's switches (boundary
+    # following, the way round) amplify that where a decision is on its threshold. Measured over every
+    # suite scenario, seed 1: 10 of 15 within 2 cm to the end; trap_small, trap_large and corridor within
+    # 12 cm; gap_1m, crossing_sweep and clutter apart by 5 cm after 18-27 s, by 0.3-2.2 m later, reaching
+    # the target 0.05-4.7 s apart (at most 6 %).
+    odom = series_from_messages(read_messages(run_dir / "bag", ["/odom", "/clock"]))
+    end = min(float(path["t"][-1]), float(odom.odom_t[-1])) - 1.0
+    for second in np.arange(1.0, end):
+        i = int(np.argmin(np.abs(path["t"] - second)))
+        j = int(np.argmin(np.abs(odom.odom_t - second)))
+        assert abs(odom.odom_t[j] - second) <= 0.02, second
+        gaps.append(math.hypot(odom.x_c[j] - path["x_c"][i], odom.y_c[j] - path["y_c"][i]))
+    assert max(gaps[:15]) < 0.05, (name, gaps[:15])
