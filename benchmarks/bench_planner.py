@@ -1,0 +1,74 @@
+"""Planner speed: the time of one planning step (`ApfPlanner.step`, what planner_node calls at 20 Hz) for
+both methods, over whole closed-loop runs of the paper's and the suite's busiest scenarios.
+
+Each run is the headless closed loop (the nodes' core classes); every planning step is timed with
+perf_counter. Target of issue 16: the robust method plans within 2 ms at p99 (the node adds the
+conversion of its messages, measured separately by bench_graph's navigation graph).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_planner.planner import ApfPlanner
+from twbr_planner.planner_params import METHODS
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
+
+SCENARIOS = ("dynamic_obstacles", "suite/clutter", "suite/corridor", "suite/crossing_sweep")
+TARGET_P99_S = 0.002
+
+
+def step_times(scenario_name: str, method: str, duration: float) -> np.ndarray:
+    """[s] of every planning step of one closed-loop run."""
+    times: list[float] = []
+    original = ApfPlanner.step
+
+    def timed(self, *args, **kwargs):
+        started = time.perf_counter()
+        out = original(self, *args, **kwargs)
+        times.append(time.perf_counter() - started)
+        return out
+
+    ApfPlanner.step = timed
+    try:
+        scenario = load_scenario(find_scenario(scenario_name))
+        run_closed_loop(min(duration, scenario.duration), planner_reference({"method": method}), scenario=scenario,
+                        seed=1)
+    finally:
+        ApfPlanner.step = original
+    return np.array(times[5:])  # the first steps load the kernels
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration", type=float, default=60.0, help="sim seconds per run")
+    ap.add_argument("--json", help="write the figures to this file")
+    args = ap.parse_args()
+    result: dict = {}
+    worst = 0.0
+    for name in SCENARIOS:
+        for method in METHODS:
+            t = step_times(name, method, args.duration)
+            p50, p99, top = (float(np.percentile(t, 50)), float(np.percentile(t, 99)), float(t.max()))
+            result[f"{name}:{method}"] = {"steps": len(t), "median_s": p50, "p99_s": p99, "max_s": top}
+            if method == "robust":
+                worst = max(worst, p99)
+            print(f"{name:22s} {method:6s}: {len(t):5d} steps, median {1e3 * p50:.3f} ms, p99 {1e3 * p99:.3f} ms,"
+                  f" max {1e3 * top:.3f} ms")
+    print(f"target: robust planning step p99 < {1e3 * TARGET_P99_S:g} ms: {'met' if worst < TARGET_P99_S else 'NOT met'}"
+          f" (worst p99 {1e3 * worst:.3f} ms)")
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
