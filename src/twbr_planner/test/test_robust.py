@@ -56,23 +56,23 @@ def test_a_gap_the_robot_fits_through_is_taken_on_a_free_way():
     assert out.velocity_cmd > 0.0
 
 
-# A wall of discs 6 m long across the way, 0.3 m from the footprint; the target behind it, to the left.
+# A wall of discs 6 m long across the way, 0.1 m from the footprint; the target behind it, to the left.
 WALL = Obstacles.of([(k, 2.0, -3.0 + 0.5 * k, 0.4) for k in range(13)])
 
 
 def test_a_blocked_way_starts_boundary_following_on_the_side_nearer_the_target():
-    # No direction within 75 degrees of the target's is free for the detection range: follow the wall, on
+    # No direction within 75 degrees of the target's is free for WAY_LOOK: follow the wall, on
     # the side nearer the target's direction.
-    out = settled(ApfPlanner(ROBUST), 1.0, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0), WALL, steps=3)
+    out = settled(ApfPlanner(ROBUST), 1.2, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0), WALL, steps=3)
     assert out.mode is Mode.ESCAPING and out.escape_side != 0
     assert out.desired_heading > 1.0  # along the wall, to the left
     mirrored = Obstacles.of([(k, 2.0, 3.0 - 0.5 * k, 0.4) for k in range(13)])
-    out = settled(ApfPlanner(ROBUST), 1.0, 0.0, 0.0, 0.0, Target(6.0, -0.5, 0.0, 0.0), mirrored, steps=3)
+    out = settled(ApfPlanner(ROBUST), 1.2, 0.0, 0.0, 0.0, Target(6.0, -0.5, 0.0, 0.0), mirrored, steps=3)
     assert out.desired_heading < -1.0
 
 
 def test_boundary_following_is_off_when_follow_range_is_zero():
-    out = settled(ApfPlanner({**ROBUST, "follow_range": 0.0}), 1.0, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0),
+    out = settled(ApfPlanner({**ROBUST, "follow_range": 0.0}), 1.2, 0.0, 0.0, 0.0, Target(6.0, 0.5, 0.0, 0.0),
                   WALL, steps=3)
     assert out.mode is not Mode.ESCAPING and out.escape_side == 0
 
@@ -141,3 +141,16 @@ def test_the_paper_method_is_unchanged_by_the_robust_parameters():
         oa = a.step(0.05 * k, 0.01 * k, 0.0, 0.0, 0.2, target, disc)
         ob = b.step(0.05 * k, 0.01 * k, 0.0, 0.0, 0.2, target, disc)
         assert (oa.velocity_cmd, oa.yaw_rate_cmd, oa.mode) == (ob.velocity_cmd, ob.yaw_rate_cmd, ob.mode)
+
+
+def test_the_safety_filter_never_reverses_a_forward_command():
+    # Stopped between two discs, ahead and behind: whatever it finds least violating, it does not back
+    # into the one behind (its look-ahead point guards the front only while it drives forwards).
+    m = np.zeros(apf.N_MEMORY)
+    m[apf.R_HAS_LAST] = 1.0
+    positions = np.array([[0.9, 0.0], [-0.9, 0.0]])
+    radii = np.array([0.5, 0.5])
+    for nominal in (0.0, 0.2):
+        v, _w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, nominal, 0.0, positions, np.zeros((2, 2)), radii,
+                                        -1)
+        assert v >= 0.0

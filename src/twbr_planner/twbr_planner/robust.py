@@ -106,6 +106,7 @@ from twbr_planner.apf import (
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
 FREE_STEER = 1.0  # on a free way the repulsion is at most this fraction of the attraction
+WAY_LOOK = 1.4  # [m] a way round must be free this far (or to the target)
 FAN_STEP = math.pi / 24  # [rad] between the directions tried for a way round
 FAN_STEPS = 10  # on each side: up to 75 degrees from the target's direction
 FOLLOW_GAIN = 2.0  # [1/m] how hard boundary following corrects its distance to the boundary
@@ -238,15 +239,17 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     would steer along a fast obstacle's path (away from it, for now) instead of out of it."""
     dt = command_period(m, stamp)
     dw = a[A_MAX_YAW_ACCELERATION] * dt
-    v_lo = max(m[R_LAST_V] - a[A_BRAKE_DECELERATION] * dt, -a[A_V_MAX])
+    # it reverses only when the command does (and then guards the point behind the axle)
+    v_lo = max(m[R_LAST_V] - a[A_BRAKE_DECELERATION] * dt, min(0.0, v_nominal), -a[A_V_MAX])
     v_hi = min(m[R_LAST_V] + a[A_MAX_ACCELERATION] * dt, a[A_V_MAX])
+    v_lo = min(v_lo, v_hi)  # a robot still reversing slows down first
     w_lo = max(m[R_LAST_OMEGA] - dw, -a[A_MAX_YAW_RATE])
     w_hi = min(m[R_LAST_OMEGA] + dw, a[A_MAX_YAW_RATE])
     v0 = min(max(v_nominal, v_lo), v_hi)
     w0 = min(max(omega_nominal, w_lo), w_hi)
     ex = math.cos(yaw)
     ey = math.sin(yaw)
-    look = a[A_SAFETY_LOOKAHEAD]
+    look = a[A_SAFETY_LOOKAHEAD] if v_nominal >= 0.0 else -a[A_SAFETY_LOOKAHEAD]
     qx = x + look * ex
     qy = y + look * ey
     gamma = a[A_SAFETY_GAMMA]
@@ -350,7 +353,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     # A way round: when the straight way is blocked within the detection range, the free direction nearest
     # the target's within the fan (the side taken last first) carries the attraction instead (a virtual
     # target on it), so that a gap beside the straight line is taken.
-    look = min(reach_goal, a[A_RHO_O])
+    look = min(reach_goal, WAY_LOOK)
     way_x = gx
     way_y = gy
     way_free = free or blocked_at >= look
