@@ -105,7 +105,7 @@ from twbr_planner.apf import (
 )
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
-FREE_STEER = 1.0  # on a free way the repulsion is at most this fraction of the attraction
+FREE_STEER = 0.3  # on a free way the repulsion is at most this fraction of the attraction
 WAY_LOOK = 1.4  # [m] a way round must be free this far (or to the target)
 FAN_STEP = math.pi / 24  # [rad] between the directions tried for a way round
 FAN_STEPS = 10  # on each side: up to 75 degrees from the target's direction
