@@ -328,6 +328,43 @@ def _stuck(a, m, ring, stamp, distance, x, y, moving_target):
 
 
 @kernel
+def arrive(a, m, distance, moving_target, mode, v, omega):
+    """(mode, v, omega, arrived): a static target inside the capture radius is reached (stop, progress
+    forgotten), a moving one there is followed; near a static one the speed is at most approach_gain *
+    distance."""
+    if distance <= a[A_CAPTURE_RADIUS]:
+        if moving_target:
+            return FOLLOWING, v, omega, False
+        m[R_HEAD] = 0.0
+        m[R_LENGTH] = 0.0
+        return ARRIVED, 0.0, 0.0, True
+    if not moving_target:
+        v = min(v, a[A_APPROACH_GAIN] * distance)
+    return mode, v, omega, False
+
+
+@kernel
+def write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
+                 escape_side, threat, binding):
+    """One planning step's output vector (Q_*)."""
+    out[Q_F_ATT_X] = f_att_x
+    out[Q_F_ATT_Y] = f_att_y
+    out[Q_F_REP_X] = f_rep_x
+    out[Q_F_REP_Y] = f_rep_y
+    out[Q_ALPHA] = alpha
+    out[Q_ERROR] = error
+    out[Q_V] = v
+    out[Q_OMEGA] = omega
+    out[Q_DISTANCE] = distance
+    out[Q_NEAREST_D] = nearest_d
+    out[Q_NEAREST_INDEX] = nearest
+    out[Q_MODE] = mode
+    out[Q_ESCAPE_SIDE] = escape_side
+    out[Q_THREAT] = threat
+    out[Q_ACTIVE_CONSTRAINT] = binding
+
+
+@kernel
 def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii,
              distances):
     """One planning step towards a target into `out` (Q_*): eqs. 21-28, arrival, following, stuck, smoothing."""
@@ -352,35 +389,9 @@ def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
         v *= max(0.0, math.cos(error))
     mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
     moving_target = math.hypot(target_vx, target_vy) > 1e-3
-    arrived = False
-    if distance <= a[A_CAPTURE_RADIUS]:
-        if moving_target:
-            mode = FOLLOWING
-        else:
-            m[R_HEAD] = 0.0
-            m[R_LENGTH] = 0.0
-            v = 0.0
-            omega = 0.0
-            mode = ARRIVED
-            arrived = True
-    if not arrived:
-        if not moving_target:
-            v = min(v, a[A_APPROACH_GAIN] * distance)
-        if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
-            mode = STUCK
+    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
+    if not arrived and mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+        mode = STUCK
     v, omega = _smooth(a, m, stamp, v, omega)
-    out[Q_F_ATT_X] = f_att_x
-    out[Q_F_ATT_Y] = f_att_y
-    out[Q_F_REP_X] = f_rep_x
-    out[Q_F_REP_Y] = f_rep_y
-    out[Q_ALPHA] = alpha
-    out[Q_ERROR] = error
-    out[Q_V] = v
-    out[Q_OMEGA] = omega
-    out[Q_DISTANCE] = distance
-    out[Q_NEAREST_D] = nearest_d
-    out[Q_NEAREST_INDEX] = nearest
-    out[Q_MODE] = mode
-    out[Q_ESCAPE_SIDE] = 0.0
-    out[Q_THREAT] = -1.0
-    out[Q_ACTIVE_CONSTRAINT] = -1.0
+    write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
+                 0.0, -1.0, -1.0)

@@ -38,9 +38,7 @@ import numpy as np
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_APPROACH_GAIN,
     A_BRAKE_DECELERATION,
-    A_CAPTURE_RADIUS,
     A_EVADE_GAIN,
     A_EVADE_HORIZON,
     A_EVADE_MARGIN,
@@ -65,34 +63,16 @@ from twbr_planner.apf import (
     A_SLOW_IN_TURNS,
     A_SPEED_POLICY,
     A_V_MAX,
-    ARRIVED,
     AVOIDING,
     ESCAPING,
     EVADING,
     FOLLOWING,
-    Q_ACTIVE_CONSTRAINT,
-    Q_ALPHA,
-    Q_DISTANCE,
-    Q_ERROR,
-    Q_ESCAPE_SIDE,
-    Q_F_ATT_X,
-    Q_F_ATT_Y,
-    Q_F_REP_X,
-    Q_F_REP_Y,
-    Q_MODE,
-    Q_NEAREST_D,
-    Q_NEAREST_INDEX,
-    Q_OMEGA,
-    Q_THREAT,
-    Q_V,
     R_FOLLOW_SIDE,
     R_FOLLOW_SINCE,
     R_FOLLOWING,
-    R_HEAD,
     R_HIT_DISTANCE,
     R_LAST_OMEGA,
     R_LAST_V,
-    R_LENGTH,
     R_STALLED,
     R_WAY_SIDE,
     STUCK,
@@ -100,8 +80,10 @@ from twbr_planner.apf import (
     _attractive,
     _repulsive_magnitude,
     _stuck,
+    arrive,
     command_period,
     limit_rates,
+    write_output,
 )
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
@@ -467,21 +449,10 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     else:
         v = min(v, a[A_V_MAX] * max(min(nearest_d, a[A_RHO_O]), 0.0) / a[A_RHO_O])  # eq. 28
     v *= direction
-    arrived = False
-    if distance <= a[A_CAPTURE_RADIUS]:
-        if moving_target:
-            mode = FOLLOWING
-        else:
-            m[R_HEAD] = 0.0
-            m[R_LENGTH] = 0.0
-            m[R_FOLLOWING] = 0.0
-            v = 0.0
-            omega = 0.0
-            mode = ARRIVED
-            arrived = True
-    if not arrived:
-        if not moving_target:
-            v = min(v, a[A_APPROACH_GAIN] * distance)
+    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
+    if arrived:
+        m[R_FOLLOWING] = 0.0
+    else:
         m[R_STALLED] = 0.0
         if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
             mode = STUCK
@@ -491,18 +462,5 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
         v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat)
     v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
-    out[Q_F_ATT_X] = f_att_x
-    out[Q_F_ATT_Y] = f_att_y
-    out[Q_F_REP_X] = f_rep_x
-    out[Q_F_REP_Y] = f_rep_y
-    out[Q_ALPHA] = alpha
-    out[Q_ERROR] = error
-    out[Q_V] = v
-    out[Q_OMEGA] = omega
-    out[Q_DISTANCE] = distance
-    out[Q_NEAREST_D] = nearest_d
-    out[Q_NEAREST_INDEX] = nearest
-    out[Q_MODE] = mode
-    out[Q_ESCAPE_SIDE] = side
-    out[Q_THREAT] = threat
-    out[Q_ACTIVE_CONSTRAINT] = binding
+    write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
+                 side, threat, binding)
