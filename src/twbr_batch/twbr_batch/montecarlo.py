@@ -105,20 +105,22 @@ class StudyRow:
         return self.reached and not self.fallen and not self.collisions
 
     def csv_fields(self) -> dict[str, str]:
-        def text(value: Any) -> str:
-            if value is None:
-                return ""
-            return f"{value:.6g}" if isinstance(value, float) else str(value)
-
         values = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "factors"}
         values.update({f"{name}_factor": self.factors[name] for name in PERTURBED})
-        return {k: text(v) for k, v in values.items()}
+        return {k: csv_text(v) for k, v in values.items()}
 
 
 COLUMNS = (*(f.name for f in fields(StudyRow) if f.name != "factors"), *(f"{name}_factor" for name in PERTURBED))
 
 
-def _finite_or_none(value: float) -> float | None:
+def csv_text(value: Any) -> str:
+    """A CSV cell: empty for None, floats to 6 significant digits."""
+    if value is None:
+        return ""
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
@@ -145,8 +147,8 @@ def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list
     return [
         StudyRow(
             seed=seed, perturbation=perturbation, reached=not math.isnan(z[Z_REACHED_AT]),
-            time_to_reach_s=_finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]),
-            min_clearance_m=_finite_or_none(z[Z_MIN_CLEARANCE]), pitch_min_rad=float(z[Z_PITCH_MIN]),
+            time_to_reach_s=finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]),
+            min_clearance_m=finite_or_none(z[Z_MIN_CLEARANCE]), pitch_min_rad=float(z[Z_PITCH_MIN]),
             pitch_max_rad=float(z[Z_PITCH_MAX]), fallen=bool(z[Z_FALLEN]),
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, sim_time_s=float(z[Z_SIM_TIME]), factors=run_factors,
         )
@@ -192,7 +194,7 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float,
     row = StudyRow(
         seed=seed, perturbation=perturbation, reached=world["reached_at"] is not None,
         time_to_reach_s=world["reached_at"], collisions=world["collisions"],
-        min_clearance_m=_finite_or_none(world["min_clearance"]), pitch_min_rad=float(pitch.min()),
+        min_clearance_m=finite_or_none(world["min_clearance"]), pitch_min_rad=float(pitch.min()),
         pitch_max_rad=float(pitch.max()), fallen=bool(trace.fallen), stuck_time_s=stuck,
         sim_time_s=float(trace.t[-1]), factors=factors,
     )

@@ -42,6 +42,7 @@ from twbr_batch.batch import (
     Z_STUCK_STEPS,
     run_batch,
 )
+from twbr_batch.montecarlo import csv_text, finite_or_none
 from twbr_common.params import ConfigError, defaults, validate_all
 from twbr_planner.planner_params import APF_SPECS, METHODS, check_consistent
 from twbr_sim.robot_params import robot_params
@@ -106,10 +107,6 @@ def robot_limits(planner: Mapping[str, Any]) -> Limits:
                   planner["max_yaw_acceleration"])
 
 
-def _finite_or_none(value: float) -> float | None:
-    return float(value) if math.isfinite(value) else None
-
-
 def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequence[int]) -> list[SuiteRow]:
     """Runs of one scenario with one planner variant, classified."""
     scenario = load_scenario(path)
@@ -137,8 +134,8 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
             scenario=scenario.name, variant=variant, seed=seed,
             outcome=classify(reached, collided, avoidable, bool(z[Z_FALLEN]), bool(z[Z_STUCK_AT_END]),
                              moving_target, z[Z_STUCK_STEPS] / PLANNER_RATE / max(z[Z_SIM_TIME], 1e-9)),
-            time_to_reach_s=_finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]), hit_obstacle_id=hit_id,
-            min_clearance_m=_finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
+            time_to_reach_s=finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]), hit_obstacle_id=hit_id,
+            min_clearance_m=finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),
             final_distance_m=float(z[Z_FINAL_DISTANCE]), sim_time_s=float(z[Z_SIM_TIME]),
         ))
@@ -252,7 +249,7 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
                 rows: list[SuiteRow] = []
                 for k in range(0, len(seeds), CHUNK):
                     chunk = run_rows(path, variant, planner, seeds[k:k + CHUNK])
-                    writer.writerows(_csv(r) for r in chunk)
+                    writer.writerows({k: csv_text(v) for k, v in asdict(r).items()} for r in chunk)
                     f.flush()
                     rows += chunk
                 summary[name][variant] = summarise(rows)
@@ -266,15 +263,6 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     (out_dir / "table.md").write_text(markdown_table(summary, list(variants)))
     return summary
-
-
-def _csv(row: SuiteRow) -> dict[str, str]:
-    def text(value: Any) -> str:
-        if value is None:
-            return ""
-        return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-    return {k: text(v) for k, v in asdict(row).items()}
 
 
 def main(argv: list[str] | None = None) -> int:
