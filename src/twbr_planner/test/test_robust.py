@@ -81,16 +81,19 @@ def test_evasion_steps_out_of_the_path_on_the_robots_side():
     positions = np.array([[8.0, 0.3]])
     radii = np.array([0.5])
     velocities = np.array([[-1.0, 0.0]])  # head-on, its path 0.3 m to the robot's left
-    ex, ey, threat = evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii)
+    moving = np.ones(1, dtype=np.bool_)
+    ex, ey, threat, tx, ty = evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)
     assert threat == 0 and ey < 0.0 and ex == pytest.approx(0.0, abs=1e-12)  # to the right, away from it
-    ex, ey, threat = evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, -0.3]]), velocities, radii)
+    assert (tx, ty) == pytest.approx((0.0, -1.0))  # the threat's own way out, the same direction
+    ex, ey, threat, _tx, _ty = evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, -0.3]]), velocities, radii, moving)
     assert ey > 0.0
-    # One that passes wide, or is far in time, or goes away, is no threat.
-    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, 3.0]]), velocities, radii)[2] == -1
-    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[80.0, 0.0]]), velocities, radii)[2] == -1
-    assert evasion(A, 0.0, 0.0, 0.0, 0.0, np.array([[3.0, 0.0]]), np.array([[1.0, 0.0]]), radii)[2] == -1
+    # One that passes wide, or is far in time, or goes away, or stands still, is no threat.
+    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, 3.0]]), velocities, radii, moving)[2] == -1
+    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[80.0, 0.0]]), velocities, radii, moving)[2] == -1
+    assert evasion(A, 0.0, 0.0, 0.0, 0.0, np.array([[3.0, 0.0]]), np.array([[1.0, 0.0]]), radii, moving)[2] == -1
+    assert evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, ~moving)[2] == -1
     off = apf.settings_vector({**ROBUST, "evade_horizon": 0.0})
-    assert evasion(off, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii)[2] == -1
+    assert evasion(off, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)[2] == -1
 
 
 def test_the_safety_filter_keeps_the_nominal_command_when_it_is_admissible():

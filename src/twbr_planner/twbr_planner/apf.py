@@ -197,6 +197,18 @@ def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distan
 
 
 @kernel
+def nearest_obstacle(distances):
+    """(index, clearance) of the nearest obstacle; (-1, inf) without obstacles."""
+    nearest = -1
+    nearest_d = math.inf
+    for j in range(distances.shape[0]):
+        if distances[j] < nearest_d or nearest < 0:
+            nearest = j
+            nearest_d = distances[j]
+    return nearest, nearest_d
+
+
+@kernel
 def speed_command(nearest_distance: float, rho_o: float, v_max: float) -> float:
     """Eq. 28 with its conditions the right way round: v_max outside the range, v_max d / rho_o inside."""
     if nearest_distance > rho_o:
@@ -375,12 +387,7 @@ def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
                                   a[A_MIN_DISTANCE], distances)
     total_x = f_att_x + f_rep_x
     total_y = f_att_y + f_rep_y
-    nearest = -1
-    nearest_d = math.inf
-    for j in range(radii.shape[0]):
-        if distances[j] < nearest_d or nearest < 0:
-            nearest = j
-            nearest_d = distances[j]
+    nearest, nearest_d = nearest_obstacle(distances)
     distance = math.hypot(target_x - x, target_y - y)
     alpha = math.atan2(total_y, total_x)
     omega, error = yaw_rate_command(alpha, yaw, a[A_K_S], a[A_MAX_YAW_RATE])

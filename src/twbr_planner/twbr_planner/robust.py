@@ -83,6 +83,7 @@ from twbr_planner.apf import (
     arrive,
     command_period,
     limit_rates,
+    nearest_obstacle,
     write_output,
 )
 
@@ -159,7 +160,7 @@ def reachable_distance(speed, tau, acceleration, v_max):
 
 
 @kernel
-def closest_approach(a, x, y, vx, vy, position, velocity):
+def closest_approach(x, y, vx, vy, position, velocity):
     """(tau [s], miss [m], out_x, out_y): when the robot, at its velocity relative to a moving obstacle's,
     passes it closest, how close (centre to centre), and the unit direction from the obstacle to the robot
     then, the way that widens the miss (Ge & Cui's dynamic repulsion acts along it); tau = inf when they
@@ -184,33 +185,38 @@ def closest_approach(a, x, y, vx, vy, position, velocity):
 
 
 @kernel
-def evasion(a, x, y, vx, vy, positions, velocities, radii):
+def evasion(a, x, y, vx, vy, positions, velocities, radii, moving):
     """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the
     direction that widens the closest approach, each weighted by its urgency (the distance the miss lacks,
-    times evade_gain, over the distance the robot can drive before the closest approach, at most 1); and
-    the most urgent one's index."""
+    times evade_gain, over the distance the robot can drive before the closest approach, at most 1); the
+    most urgent one's index (-1 none) and its own widening direction."""
     horizon = a[A_EVADE_HORIZON]
     ex = 0.0
     ey = 0.0
     threat = -1
+    threat_x = 0.0
+    threat_y = 0.0
     urgent = 0.0
     if horizon <= 0.0:
-        return ex, ey, threat
+        return ex, ey, threat, threat_x, threat_y
+    drive_speed = math.hypot(vx, vy)
     for j in range(radii.shape[0]):
-        if math.hypot(velocities[j, 0], velocities[j, 1]) < 1e-3:
+        if not moving[j]:
             continue
-        tau, miss, out_x, out_y = closest_approach(a, x, y, vx, vy, positions[j], velocities[j])
+        tau, miss, out_x, out_y = closest_approach(x, y, vx, vy, positions[j], velocities[j])
         reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
         if tau > horizon or miss >= reach:
             continue
-        drivable = reachable_distance(math.hypot(vx, vy), tau, a[A_MAX_ACCELERATION], a[A_V_MAX])
+        drivable = reachable_distance(drive_speed, tau, a[A_MAX_ACCELERATION], a[A_V_MAX])
         weight = min(1.0, a[A_EVADE_GAIN] * (reach - miss) / max(drivable, 1e-6))
         ex += weight * out_x
         ey += weight * out_y
         if weight > urgent:
             urgent = weight
             threat = j
-    return ex, ey, threat
+            threat_x = out_x
+            threat_y = out_y
+    return ex, ey, threat, threat_x, threat_y
 
 
 @kernel
@@ -305,10 +311,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     # 1. repulsion within repulsion_range, faded towards the target; moving obstacles are flagged
     f_rep_x = 0.0
     f_rep_y = 0.0
-    nearest = -1
-    nearest_d = math.inf
-    nearest_static = math.inf
     moving = np.empty(radii.shape[0], dtype=np.bool_)
+    nearest_static = math.inf
     for j in range(radii.shape[0]):
         ax = x - positions[j, 0]
         ay = y - positions[j, 1]
@@ -316,15 +320,13 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         d = centre - radii[j] - robot_radius
         distances[j] = d
         moving[j] = math.hypot(velocities[j, 0], velocities[j, 1]) > 1e-3
-        if d < nearest_d or nearest < 0:
-            nearest = j
-            nearest_d = d
         if not moving[j]:
             nearest_static = min(nearest_static, d)
         magnitude = fade * _repulsive_magnitude(d, a[A_K_O], a[A_REPULSION_RANGE], a[A_MIN_DISTANCE])
         scale = max(centre, 1e-9)
         f_rep_x += magnitude * ax / scale
         f_rep_y += magnitude * ay / scale
+    nearest, nearest_d = nearest_obstacle(distances)
     # is the straight way to the target free (every obstacle where it is now, footprint and a margin)?
     att_norm = math.hypot(f_att_x, f_att_y)
     gx = f_att_x / att_norm if att_norm > 1e-12 else math.cos(yaw)
@@ -332,9 +334,9 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     reach_goal = distance
     blocked_at = ray_clearance(x, y, gx, gy, positions, radii, robot_radius + FREE_MARGIN, reach_goal, moving, False)
     free = blocked_at >= reach_goal
-    # A way round: when the straight way is blocked within the detection range, the free direction nearest
-    # the target's within the fan (the side taken last first) carries the attraction instead (a virtual
-    # target on it), so that a gap beside the straight line is taken.
+    # A way round: when the straight way is blocked within WAY_LOOK, the direction nearest the target's
+    # within the fan (the side taken last first) that is free for WAY_LOOK carries the attraction instead
+    # (a virtual target on it), so that a gap beside the straight line is taken.
     look = min(reach_goal, WAY_LOOK)
     way_x = gx
     way_y = gy
@@ -357,7 +359,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             if way_free:
                 break
     if way_free:
-        # The way is free: the repulsion steers (at most FREE_STEER of the attraction, 45 degrees), it
+        # The way is free: the repulsion steers (at most FREE_STEER of the attraction, 17 degrees), it
         # neither holds the robot back nor turns it away from a target it can drive to.
         along = f_rep_x * way_x + f_rep_y * way_y
         if along < 0.0:
@@ -372,12 +374,12 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
     # 2. boundary following out of a local minimum
     side = 0.0
-    nx, ny, near_boundary = boundary_normal(x, y, positions, radii, robot_radius, a[A_FOLLOW_RANGE])
     if a[A_FOLLOW_RANGE] > 0.0:
+        nx, ny, near_boundary = boundary_normal(x, y, positions, radii, robot_radius, a[A_FOLLOW_RANGE])
         if m[R_FOLLOWING] != 0.0:
             elapsed = stamp - m[R_FOLLOW_SINCE]
             # TangentBug's leave rule: closer than where following began, and a free way towards the target
-            # for the detection range (what lies beyond is met as it comes)
+            # for WAY_LOOK (what lies beyond is met as it comes)
             if way_free and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
                 m[R_FOLLOWING] = 0.0
             elif near_boundary == math.inf:
@@ -404,7 +406,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             total_y = ty + correction * ny
             mode = ESCAPING
     # 3. dynamic repulsion: out of a moving obstacle's swept path, never towards the obstacle
-    ex, ey, threat = evasion(a, x, y, vx, vy, positions, velocities, radii)
+    ex, ey, threat, out_x, out_y = evasion(a, x, y, vx, vy, positions, velocities, radii, moving)
     if threat >= 0:
         norm = math.hypot(total_x, total_y)
         base_x = total_x / norm if norm > 1e-12 else 0.0
@@ -417,7 +419,6 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             base_x -= towards * to_x / to_norm
             base_y -= towards * to_y / to_norm
         # nor so as to narrow its closest approach
-        _tau, _miss, out_x, out_y = closest_approach(a, x, y, vx, vy, positions[threat], velocities[threat])
         inwards = base_x * out_x + base_y * out_y
         if inwards < 0.0:
             base_x -= inwards * out_x
