@@ -179,8 +179,9 @@ def _repulsive_magnitude(d, k_o, rho_o, d_min):
 
 
 @kernel
-def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distances):
-    """Eq. 23 summed over the obstacles (from each obstacle to the robot); clearances into `distances`."""
+def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distances, fade=1.0):
+    """Eq. 23 summed over the obstacles (from each obstacle to the robot), each scaled by `fade` (the robust
+    method's goal fade); clearances into `distances`."""
     fx = 0.0
     fy = 0.0
     for j in range(radii.shape[0]):
@@ -189,7 +190,7 @@ def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distan
         centre = math.sqrt(ax * ax + ay * ay)
         d = centre - radii[j] - robot_radius
         distances[j] = d
-        magnitude = _repulsive_magnitude(d, k_o, rho_o, d_min)
+        magnitude = fade * _repulsive_magnitude(d, k_o, rho_o, d_min)
         scale = max(centre, 1e-9)
         fx += magnitude * (ax / scale)
         fy += magnitude * (ay / scale)

@@ -78,7 +78,7 @@ from twbr_planner.apf import (
     STUCK,
     TRACKING,
     _attractive,
-    _repulsive_magnitude,
+    _repulsion,
     _stuck,
     arrive,
     command_period,
@@ -309,23 +309,14 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if a[A_GOAL_FADE] > 0.0:
         fade = min(1.0, (distance / a[A_GOAL_FADE]) ** 2)
     # 1. repulsion within repulsion_range, faded towards the target; moving obstacles are flagged
-    f_rep_x = 0.0
-    f_rep_y = 0.0
+    f_rep_x, f_rep_y = _repulsion(x, y, positions, radii, a[A_K_O], a[A_REPULSION_RANGE], robot_radius,
+                                  a[A_MIN_DISTANCE], distances, fade)
     moving = np.empty(radii.shape[0], dtype=np.bool_)
     nearest_static = math.inf
     for j in range(radii.shape[0]):
-        ax = x - positions[j, 0]
-        ay = y - positions[j, 1]
-        centre = math.sqrt(ax * ax + ay * ay)
-        d = centre - radii[j] - robot_radius
-        distances[j] = d
         moving[j] = math.hypot(velocities[j, 0], velocities[j, 1]) > 1e-3
         if not moving[j]:
-            nearest_static = min(nearest_static, d)
-        magnitude = fade * _repulsive_magnitude(d, a[A_K_O], a[A_REPULSION_RANGE], a[A_MIN_DISTANCE])
-        scale = max(centre, 1e-9)
-        f_rep_x += magnitude * ax / scale
-        f_rep_y += magnitude * ay / scale
+            nearest_static = min(nearest_static, distances[j])
     nearest, nearest_d = nearest_obstacle(distances)
     # is the straight way to the target free (every obstacle where it is now, footprint and a margin)?
     att_norm = math.hypot(f_att_x, f_att_y)
