@@ -24,14 +24,13 @@ import numpy as np
 
 from twbr_common.jit import kernel, parallel_kernel
 from twbr_common.layout import Layout
-from twbr_common.params import ConfigError, default_of, defaults, validate_all
+from twbr_common.params import ConfigError, default_of
 from twbr_common.timing import is_due, next_due
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
 from twbr_control.cascade import settings_vector as control_vector
-from twbr_control.controller_params import CONTROL_SPECS
-from twbr_control.controller_params import check_consistent as check_controller
+from twbr_control.controller_params import resolve as resolve_controller
 from twbr_planner.apf import (
     A_RHO_O,
     PROGRESS_COLUMNS,
@@ -46,9 +45,8 @@ from twbr_planner.apf import N_MEMORY as N_PLANNER_MEMORY
 from twbr_planner.apf import N_OUTPUTS as N_PLANNER_OUTPUTS
 from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner import plan_step
-from twbr_planner.planner_params import APF_SPECS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
-from twbr_planner.planner_params import check_consistent as check_planner
+from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
 from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
@@ -336,8 +334,8 @@ def run_batch(
     params = np.ascontiguousarray(params, dtype=float)
     if n < 1 or params.shape[0] != n:
         raise ConfigError(f"batch: {n} seeds and {params.shape[0]} parameter rows: need as many, at least 1")
-    control_cfg = check_controller(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})}))
-    planner_cfg = check_planner(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})}))
+    control_cfg = resolve_controller(control)
+    planner_cfg = resolve_planner(planner)
     rate = control_cfg["rate"]
     steps_per_control = steps_per_publish(physics_rate, rate)
     duration = scenario.duration if duration is None else duration

@@ -16,8 +16,7 @@ import numpy as np
 from twbr_common.params import default_of, defaults, validate_all
 from twbr_common.timing import Decimator
 from twbr_control.cascade import CascadeController, ControlOutput
-from twbr_control.controller_params import CONTROL_SPECS
-from twbr_control.controller_params import check_consistent as check_controller
+from twbr_control.controller_params import resolve as resolve_controller
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
@@ -60,7 +59,7 @@ def run_closed_loop(
 ) -> Trace:
     """Run the cores for `duration` seconds of sim time, or until `stop(simulator)` (checked after each
     control step, as a simulator ending a run on its target would); settings default to the tables."""
-    control_cfg = check_controller(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(control or {})}))
+    control_cfg = resolve_controller(control)
     sim_cfg = validate_all(SIM_SPECS, {**defaults(SIM_SPECS), **(sim or {})})
     sim_cfg["publish_rate"] = control_cfg["rate"]
     simulator = Simulator(robot_params(validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **(robot or {})})),
@@ -95,10 +94,10 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
     planner node's default when None)."""
     from twbr_planner.apf import Obstacles
     from twbr_planner.planner import ApfPlanner, Target
-    from twbr_planner.planner_params import APF_SPECS, check_consistent
     from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
+    from twbr_planner.planner_params import resolve as resolve_planner
 
-    cfg = check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(planner or {})}))
+    cfg = resolve_planner(planner)
     rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
     core = ApfPlanner(cfg, rate)
     due = Decimator(rate)

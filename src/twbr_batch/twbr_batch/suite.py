@@ -43,8 +43,9 @@ from twbr_batch.batch import (
     run_batch,
 )
 from twbr_batch.montecarlo import csv_text, finite_or_none
-from twbr_common.params import ConfigError, defaults, validate_all
-from twbr_planner.planner_params import APF_SPECS, METHODS, check_consistent
+from twbr_common.params import ConfigError
+from twbr_planner.planner_params import METHODS
+from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario, vary
 from twbr_sim.scenario_files import find_scenario, suite_names
@@ -96,10 +97,6 @@ def suite_scenarios() -> list[Path]:
     return [find_scenario(name) for name in names]
 
 
-def planner_settings(overrides: Mapping[str, Any]) -> dict[str, Any]:
-    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **overrides}))
-
-
 def robot_limits(planner: Mapping[str, Any]) -> Limits:
     """What the robot is allowed to do, as the run's planner was: the bounds of the avoidability check."""
     braking = planner["brake_deceleration"] if planner["method"] == "robust" else planner["max_acceleration"]
@@ -110,7 +107,7 @@ def robot_limits(planner: Mapping[str, Any]) -> Limits:
 def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequence[int]) -> list[SuiteRow]:
     """Runs of one scenario with one planner variant, classified."""
     scenario = load_scenario(path)
-    cfg = planner_settings(planner)
+    cfg = resolve_planner(planner)
     limits = robot_limits(cfg)
     robot_radius = cfg["robot_radius"]
     table = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
@@ -196,7 +193,7 @@ def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: 
     seeds = list(range(1, TRACED_SEEDS + 1))
     fig, axes = plt.subplots(1, len(variants), figsize=(6.5 * len(variants), 6), squeeze=False)
     for ax, (variant, planner) in zip(axes[0], variants.items(), strict=True):
-        cfg = planner_settings(planner)
+        cfg = resolve_planner(planner)
         result = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
                            duration=TIME_LIMIT, record=True)
         layout = vary(scenario, seeds[0])

@@ -5,7 +5,10 @@ The gain defaults are the ones config/controller.yaml carries (tools/tune_gains.
 
 from __future__ import annotations
 
-from twbr_common.params import ConfigError, ParamSpec, tunable
+from collections.abc import Mapping
+from typing import Any
+
+from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
 
 GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
     ParamSpec("velocity.kp", 0.4529, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
@@ -63,3 +66,8 @@ def check_consistent(cfg: dict) -> dict:
             f" - |pitch_offset| = {cfg['fall_pitch'] - abs(cfg['pitch_offset']):g} rad"
         )
     return cfg
+
+
+def resolve(overrides: Mapping[str, Any] | None = None) -> dict:
+    """The controller's settings for a headless run: the defaults with `overrides`, validated and checked."""
+    return check_consistent(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(overrides or {})}))

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from twbr_common.params import ConfigError, ParamSpec, tunable
+from collections.abc import Mapping
+from typing import Any
+
+from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
 
 METHODS = ("paper", "robust")
 
@@ -103,3 +106,8 @@ def check_consistent(cfg: dict) -> dict:
             f" = {cfg['v_max'] * cfg['stuck_time']:g} m (else a robot at full speed counts as stuck)"
         )
     return cfg
+
+
+def resolve(overrides: Mapping[str, Any] | None = None) -> dict:
+    """The planner's settings for a headless run: the defaults with `overrides`, validated and checked."""
+    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(overrides or {})}))
