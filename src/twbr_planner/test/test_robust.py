@@ -157,3 +157,49 @@ def test_the_safety_filter_never_reverses_a_forward_command():
         v, _w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, nominal, 0.0, positions, np.zeros((2, 2)), radii,
                                         -1)
         assert v >= 0.0
+
+
+def test_a_stopped_robot_facing_a_disc_may_turn_away_through_it():
+    # Stopped 0.27 m from a disc's footprint, facing just past it, the way on to the right behind the
+    # disc: the look-ahead point would sweep through the disc, but a turn on the spot moves no part of
+    # the robot, so the filter lets it turn (this was a deadlock in the clutter suite).
+    m = np.zeros(apf.N_MEMORY)
+    m[apf.R_HAS_LAST] = 1.0
+    positions = np.array([[0.97, -0.29]])
+    radii = np.array([0.45])
+    yaw = 0.38
+    v, w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, yaw, 0.0, -1.0, positions, np.zeros((1, 2)), radii, -1)
+    assert v == 0.0 and w == pytest.approx(-ROBUST["max_yaw_acceleration"] * 0.05)
+    # and it does not let the robot drive into the disc instead
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, -0.29, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1)
+    assert v < 0.3 * 0.5 and binding == 0
+
+
+def drive(planner: ApfPlanner, x, y, yaw, target, obstacles, duration):
+    """A unicycle that does what the planner commands, every 0.05 s: when it came within 0.5 m of the
+    target (None: never), and its smallest clearance to a footprint on the way."""
+    speed = 0.0
+    closest = math.inf
+    for k in range(int(duration / 0.05)):
+        out = planner.step(0.05 * k, x, y, yaw, speed, target, obstacles)
+        speed = out.velocity_cmd
+        yaw += 0.05 * out.yaw_rate_cmd
+        x += 0.05 * speed * math.cos(yaw)
+        y += 0.05 * speed * math.sin(yaw)
+        closest = min(closest, out.nearest_obstacle_distance)
+        if math.hypot(target.x - x, target.y - y) < 0.5:
+            return 0.05 * k, closest
+    return None, closest
+
+
+def test_a_trap_is_left_down_the_navigation_function():
+    # Into a U of discs 2.6 m deep whose bottom lies between the robot and the target: the paper's field
+    # stops at the bottom; the robust method leaves by the mouth and goes round.
+    u = Obstacles.of([(k, 7.0, -2.35 + 0.47 * k, 0.35) for k in range(11)]
+                     + [(20 + k, 4.0 + 0.5 * k, 2.35, 0.35) for k in range(6)]
+                     + [(30 + k, 4.0 + 0.5 * k, -2.35, 0.35) for k in range(6)])
+    target = Target(10.0, 0.0, 0.0, 0.0)
+    arrived, closest = drive(ApfPlanner(ROBUST), 2.0, 0.1, 0.0, target, u, 120.0)
+    assert arrived is not None and arrived < 90.0 and closest > 0.05
+    arrived, _closest = drive(ApfPlanner(PAPER), 2.0, 0.1, 0.0, target, u, 120.0)
+    assert arrived is None

@@ -9,11 +9,13 @@ comes from):
    reachable. It also acts only within `repulsion_range` of a surface (not the detection range): a gap
    the robot fits through is not closed by its edges' fields. While the way to the target is free, the
    repulsion only steers sideways (its component against the target's direction is dropped).
-2. Boundary following out of local minima (the tangential field of a Bug-style escape): when the straight
-   way to the target is blocked within `follow_range`, the robot follows the obstacles' boundary (the
-   tangent of the repulsion, at `follow_clearance`) on the side nearer the target's direction, and leaves
-   it once it is closer to the target than where it started and the way towards the target is free for
-   the detection range rho_o (TangentBug's rule).
+2. An escape out of local minima that guarantees progress: when the straight way to the target is
+   blocked within `follow_range`, or the field pushes away from it, or the progress detector finds
+   none, the robot descends a navigation function (twbr_planner.navigation: a cost-to-go over a grid of
+   the static obstacles, which has no minimum but the target) and leaves it once it is closer to the
+   target than where it started and the way towards the target is free (TangentBug's rule). Where no
+   way leads to the target it follows the obstacles' boundary instead (the tangent of the repulsion, at
+   `follow_clearance`, on the side nearer the target's direction).
 3. Dynamic repulsion (after Ge & Cui 2002): a moving obstacle whose closest approach, at the current
    relative velocity, comes within `evade_margin` of the robot's footprint in less than `evade_horizon`
    pushes the robot sideways out of its swept path, early, instead of braking in it.
@@ -86,6 +88,7 @@ from twbr_planner.apf import (
     nearest_obstacle,
     write_output,
 )
+from twbr_planner.navigation import navigation_direction
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
 FREE_STEER = 0.3  # on a free way the repulsion is at most this fraction of the attraction
@@ -241,9 +244,11 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     qx = x + look * ex
     qy = y + look * ey
     gamma = a[A_SAFETY_GAMMA]
-    # Each obstacle in range gives a constraint linear in the command: cv * A + cw * B + C >= 0.
+    # Each obstacle in range gives a constraint linear in the command: cv * A + cw * B + C >= 0; a robot
+    # turning on the spot moves no part of its round footprint, so a command with cv = 0 is held to the
+    # axle's own barrier D >= 0 instead (the point ahead would forbid the turn that leaves a boundary).
     n = radii.shape[0]
-    coef = np.empty((n, 3))
+    coef = np.empty((n, 4))
     index = np.empty(n, dtype=np.int64)
     count = 0
     for j in range(n):
@@ -258,6 +263,9 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
         coef[count, 0] = 2.0 * (rx * ex + ry * ey)
         coef[count, 1] = 2.0 * look * (ry * ex - rx * ey)
         coef[count, 2] = -2.0 * (rx * velocities[j, 0] + ry * velocities[j, 1]) + gamma * (centre * centre - reach * reach)
+        px = x - positions[j, 0]
+        py = y - positions[j, 1]
+        coef[count, 3] = -2.0 * (px * velocities[j, 0] + py * velocities[j, 1]) + gamma * (px * px + py * py - reach * reach)
         index[count] = j
         count += 1
     if count == 0:
@@ -275,7 +283,7 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
             slack = math.inf
             binding = -1
             for c in range(count):
-                s = cv * coef[c, 0] + cw * coef[c, 1] + coef[c, 2]
+                s = coef[c, 3] if cv == 0.0 else cv * coef[c, 0] + cw * coef[c, 1] + coef[c, 2]
                 if s < 0.0:
                     violation -= s
                 if s < slack:
@@ -367,12 +375,19 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     side = 0.0
     if a[A_FOLLOW_RANGE] > 0.0:
         nx, ny, near_boundary = boundary_normal(x, y, positions, radii, robot_radius, a[A_FOLLOW_RANGE])
+        escape_x = 0.0
+        escape_y = 0.0
+        found = False
         if m[R_FOLLOWING] != 0.0:
             elapsed = stamp - m[R_FOLLOW_SINCE]
+            escape_x, escape_y, found = navigation_direction(x, y, target_x, target_y, positions, radii, moving,
+                                                             robot_radius + FREE_MARGIN)
             # TangentBug's leave rule: closer than where following began, and a free way towards the target
             # for WAY_LOOK (what lies beyond is met as it comes)
             if way_free and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
                 m[R_FOLLOWING] = 0.0
+            elif found:
+                pass
             elif near_boundary == math.inf:
                 m[R_FOLLOWING] = 0.0  # lost the boundary: back to the field
             elif elapsed > FOLLOW_FLIP:
@@ -388,7 +403,13 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             m[R_FOLLOW_SINCE] = stamp
             # the side whose tangent is nearer the target's direction
             m[R_FOLLOW_SIDE] = 1.0 if (-ny * gx + nx * gy) >= 0.0 else -1.0
-        if m[R_FOLLOWING] != 0.0 and near_boundary < math.inf:
+        if m[R_FOLLOWING] != 0.0 and found:
+            # down the navigation function; the side is the one it passes the target's direction on
+            side = 1.0 if gx * escape_y - gy * escape_x >= 0.0 else -1.0
+            total_x = escape_x
+            total_y = escape_y
+            mode = ESCAPING
+        elif m[R_FOLLOWING] != 0.0 and near_boundary < math.inf:
             side = m[R_FOLLOW_SIDE]
             tx = -ny * side
             ty = nx * side
