@@ -230,10 +230,11 @@ def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: 
 
 
 def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]], paths: Iterable[Path],
-              figures: bool = True, progress: bool = True) -> dict[str, Any]:
-    """Every scenario for every variant; rows appended to runs.csv as each chunk ends."""
+              figures: bool = True, progress: bool = True, first_seed: int = 1) -> dict[str, Any]:
+    """Every scenario for every variant, seeds first_seed..first_seed + runs - 1; rows appended to runs.csv
+    as each chunk ends."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    seeds = list(range(1, runs + 1))
+    seeds = list(range(first_seed, first_seed + runs))
     summary: dict[str, dict[str, Any]] = {}
     started = time.monotonic()
     with (out_dir / "runs.csv").open("w", newline="") as f:
@@ -265,6 +266,8 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="suite", description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", "--runs", type=int, default=1000, help="seeds per scenario and method (default 1000)")
+    ap.add_argument("--first-seed", type=int, default=1,
+                    help="the first seed (default 1); another range checks results on seeds nothing was tuned on")
     ap.add_argument("--methods", default=",".join(METHODS), help="planner methods, comma-separated (default: both)")
     ap.add_argument("--ablation", action="store_true",
                     help="the robust method with each addition switched off in turn, instead of the methods")
@@ -275,6 +278,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if opts.runs < 1:
             raise ConfigError(f"invalid --runs {opts.runs}: must be at least 1")
+        if opts.first_seed < 0:
+            raise ConfigError(f"invalid --first-seed {opts.first_seed}: must be at least 0")
         if opts.ablation:
             variants = {name: {"method": "robust", **overrides} for name, overrides in ABLATIONS.items()}
         else:
@@ -294,8 +299,10 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as e:
         print(f"suite: {e}", file=sys.stderr)
         return 2
-    print(f"suite: {len(paths)} scenarios x {len(variants)} planners x {opts.runs} seeds -> {opts.out}", flush=True)
-    summary = run_suite(opts.out, opts.runs, variants, paths, figures=not opts.no_figures)
+    print(f"suite: {len(paths)} scenarios x {len(variants)} planners x {opts.runs} seeds from {opts.first_seed}"
+          f" -> {opts.out}", flush=True)
+    summary = run_suite(opts.out, opts.runs, variants, paths, figures=not opts.no_figures,
+                        first_seed=opts.first_seed)
     print(markdown_table(summary, list(variants)))
     return 0
 

@@ -17,6 +17,11 @@ PAPER = {**defaults(APF_SPECS), "method": "paper"}
 A = apf.settings_vector(ROBUST)
 
 
+def memory() -> np.ndarray:
+    """A planner's memory as it starts."""
+    return np.zeros(apf.N_MEMORY)
+
+
 def settled(planner: ApfPlanner, x, y, yaw, speed, target, obstacles, steps=60):
     """Plan `steps` times from the same state (the command's rate limits settle), the last output."""
     out = None
@@ -82,18 +87,18 @@ def test_evasion_steps_out_of_the_path_on_the_robots_side():
     radii = np.array([0.5])
     velocities = np.array([[-1.0, 0.0]])  # head-on, its path 0.3 m to the robot's left
     moving = np.ones(1, dtype=np.bool_)
-    ex, ey, threat, tx, ty = evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)
+    ex, ey, threat, tx, ty = evasion(A, memory(), 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)
     assert threat == 0 and ey < 0.0 and ex == pytest.approx(0.0, abs=1e-12)  # to the right, away from it
     assert (tx, ty) == pytest.approx((0.0, -1.0))  # the threat's own way out, the same direction
-    ex, ey, threat, _tx, _ty = evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, -0.3]]), velocities, radii, moving)
+    ex, ey, threat, _tx, _ty = evasion(A, memory(), 0.0, 0.0, 0.3, 0.0, np.array([[8.0, -0.3]]), velocities, radii, moving)
     assert ey > 0.0
     # One that passes wide, or is far in time, or goes away, or stands still, is no threat.
-    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[8.0, 3.0]]), velocities, radii, moving)[2] == -1
-    assert evasion(A, 0.0, 0.0, 0.3, 0.0, np.array([[80.0, 0.0]]), velocities, radii, moving)[2] == -1
-    assert evasion(A, 0.0, 0.0, 0.0, 0.0, np.array([[3.0, 0.0]]), np.array([[1.0, 0.0]]), radii, moving)[2] == -1
-    assert evasion(A, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, ~moving)[2] == -1
+    assert evasion(A, memory(), 0.0, 0.0, 0.3, 0.0, np.array([[8.0, 3.0]]), velocities, radii, moving)[2] == -1
+    assert evasion(A, memory(), 0.0, 0.0, 0.3, 0.0, np.array([[80.0, 0.0]]), velocities, radii, moving)[2] == -1
+    assert evasion(A, memory(), 0.0, 0.0, 0.0, 0.0, np.array([[3.0, 0.0]]), np.array([[1.0, 0.0]]), radii, moving)[2] == -1
+    assert evasion(A, memory(), 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, ~moving)[2] == -1
     off = apf.settings_vector({**ROBUST, "evade_horizon": 0.0})
-    assert evasion(off, 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)[2] == -1
+    assert evasion(off, memory(), 0.0, 0.0, 0.3, 0.0, positions, velocities, radii, moving)[2] == -1
 
 
 def test_the_safety_filter_keeps_the_nominal_command_when_it_is_admissible():
@@ -203,3 +208,21 @@ def test_a_trap_is_left_down_the_navigation_function():
     assert arrived is not None and arrived < 90.0 and closest > 0.05
     arrived, _closest = drive(ApfPlanner(PAPER), 2.0, 0.1, 0.0, target, u, 120.0)
     assert arrived is None
+
+
+def test_a_dead_on_obstacle_is_passed_on_the_side_first_chosen():
+    # An obstacle crossing at 1.2 m/s straight at where the robot will be: as the robot's speed wavers the
+    # miss crosses zero; the widening direction must not flip with it (braking, then speeding up, in its path).
+    m = np.zeros(apf.N_MEMORY)
+    velocities = np.array([[0.0, 1.2]])
+    radii = np.array([0.5])
+    moving = np.ones(1, dtype=np.bool_)
+    _ex, _ey, threat, tx, _ty = evasion(A, m, 0.0, 0.0, 0.4, 0.0, np.array([[1.05, -3.0]]), velocities, radii, moving)
+    assert threat == 0 and tx < 0.0  # it would pass just ahead of the robot: let it, hang back
+    # a moment later the robot is a little faster: the miss is 0.05 m on the other side
+    _ex, _ey, threat, tx, _ty = evasion(A, m, 0.0, 0.0, 0.45, 0.0, np.array([[1.05, -3.0]]), velocities, radii, moving)
+    assert threat == 0 and tx < 0.0
+    # a fresh memory would have switched
+    _ex, _ey, _threat, tx, _ty = evasion(A, memory(), 0.0, 0.0, 0.45, 0.0, np.array([[1.05, -3.0]]),
+                                         velocities, radii, moving)
+    assert tx > 0.0

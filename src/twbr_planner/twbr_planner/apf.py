@@ -91,7 +91,8 @@ A_BRAKE_DECELERATION = SETTINGS_LAYOUT["brake_deceleration"]
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
 # it began, whether the last step found no progress, and the side of the last way round).
 MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length", "following",
-                        "follow_side", "hit_distance", "follow_since", "stalled", "way_side"))
+                        "follow_side", "hit_distance", "follow_since", "stalled", "way_side", "evade_threat",
+                        "evade_side"))
 R_HAS_LAST = MEMORY_LAYOUT["has_last"]
 R_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 R_LAST_V = MEMORY_LAYOUT["last_v"]
@@ -104,6 +105,8 @@ R_HIT_DISTANCE = MEMORY_LAYOUT["hit_distance"]
 R_FOLLOW_SINCE = MEMORY_LAYOUT["follow_since"]
 R_STALLED = MEMORY_LAYOUT["stalled"]
 R_WAY_SIDE = MEMORY_LAYOUT["way_side"]
+R_EVADE_THREAT = MEMORY_LAYOUT["evade_threat"]
+R_EVADE_SIDE = MEMORY_LAYOUT["evade_side"]
 N_MEMORY = len(MEMORY_LAYOUT)
 PROGRESS_COLUMNS = 4  # (t, distance, x, y) per planning step
 # Output vector of one step.

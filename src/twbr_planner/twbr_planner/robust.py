@@ -69,6 +69,8 @@ from twbr_planner.apf import (
     ESCAPING,
     EVADING,
     FOLLOWING,
+    R_EVADE_SIDE,
+    R_EVADE_THREAT,
     R_FOLLOW_SIDE,
     R_FOLLOW_SINCE,
     R_FOLLOWING,
@@ -101,6 +103,8 @@ FOLLOW_FLIP = 40.0  # [s] boundary following on one side this long without leavi
 V_CANDIDATES = 5  # the safety filter's grid of forward speeds within one period's acceleration
 OMEGA_CANDIDATES = 11  # and of yaw rates
 OMEGA_WEIGHT = 0.1  # [s^2] cost of a yaw-rate change against a speed change
+MOVING_NEAR = 0.5  # [m] the safety filter guards against an obstacle faster than the robot only this near
+EVADE_SWITCH = 0.3  # [m] a dead-on obstacle is passed on the side first chosen until the other is this clearer
 REVERSE_BELOW = 0.05  # [m/s] evading, a robot slower than this may back away
 VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal
 
@@ -188,19 +192,25 @@ def closest_approach(x, y, vx, vy, position, velocity):
 
 
 @kernel
-def evasion(a, x, y, vx, vy, positions, velocities, radii, moving):
+def evasion(a, m, x, y, vx, vy, positions, velocities, radii, moving):
     """Ge & Cui's dynamic repulsion, as a direction: the sum over threatening moving obstacles of the
     direction that widens the closest approach, each weighted by its urgency (the distance the miss lacks,
     times evade_gain, over the distance the robot can drive before the closest approach, at most 1); the
-    most urgent one's index (-1 none) and its own widening direction."""
+    most urgent one's index (-1 none) and its own widening direction.
+
+    An obstacle coming nearly dead on is passed on the side chosen when it first became the most urgent
+    (kept in m) until the other side is EVADE_SWITCH clearer: the widening direction flips as the miss
+    crosses zero, and a robot that follows each flip brakes and speeds up in the obstacle's path."""
     horizon = a[A_EVADE_HORIZON]
     ex = 0.0
     ey = 0.0
     threat = -1
     threat_x = 0.0
     threat_y = 0.0
+    threat_side = 0.0
     urgent = 0.0
     if horizon <= 0.0:
+        m[R_EVADE_SIDE] = 0.0
         return ex, ey, threat, threat_x, threat_y
     drive_speed = math.hypot(vx, vy)
     for j in range(radii.shape[0]):
@@ -210,6 +220,13 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii, moving):
         reach = radii[j] + a[A_ROBOT_RADIUS] + a[A_EVADE_MARGIN]
         if tau > horizon or miss >= reach:
             continue
+        # the side of the relative motion it passes on: +1 its right, -1 its left
+        side = 1.0 if out_x * (vy - velocities[j, 1]) - out_y * (vx - velocities[j, 0]) >= 0.0 else -1.0
+        if j == m[R_EVADE_THREAT] and m[R_EVADE_SIDE] != 0.0 and side != m[R_EVADE_SIDE] and miss < EVADE_SWITCH:
+            out_x = -out_x
+            out_y = -out_y
+            miss = -miss
+            side = -side
         drivable = reachable_distance(drive_speed, tau, a[A_MAX_ACCELERATION], a[A_V_MAX])
         weight = min(1.0, a[A_EVADE_GAIN] * (reach - miss) / max(drivable, 1e-6))
         ex += weight * out_x
@@ -219,6 +236,9 @@ def evasion(a, x, y, vx, vy, positions, velocities, radii, moving):
             threat = j
             threat_x = out_x
             threat_y = out_y
+            threat_side = side
+    m[R_EVADE_THREAT] = threat
+    m[R_EVADE_SIDE] = threat_side
     return ex, ey, threat, threat_x, threat_y
 
 
@@ -260,6 +280,10 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
         centre = math.sqrt(rx * rx + ry * ry)
         if centre - reach > a[A_RHO_O]:
             continue  # beyond the detection range
+        if centre - reach > MOVING_NEAR and math.hypot(velocities[j, 0], velocities[j, 1]) > a[A_V_MAX]:
+            # an obstacle faster than the robot is left to the evasion until it is near: a barrier on its
+            # distance would turn the robot away from it, along its path, where it cannot outrun it
+            continue
         coef[count, 0] = 2.0 * (rx * ex + ry * ey)
         coef[count, 1] = 2.0 * look * (ry * ex - rx * ey)
         coef[count, 2] = -2.0 * (rx * velocities[j, 0] + ry * velocities[j, 1]) + gamma * (centre * centre - reach * reach)
@@ -418,7 +442,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
             total_y = ty + correction * ny
             mode = ESCAPING
     # 3. dynamic repulsion: out of a moving obstacle's swept path, never towards the obstacle
-    ex, ey, threat, out_x, out_y = evasion(a, x, y, vx, vy, positions, velocities, radii, moving)
+    ex, ey, threat, out_x, out_y = evasion(a, m, x, y, vx, vy, positions, velocities, radii, moving)
     if threat >= 0:
         norm = math.hypot(total_x, total_y)
         base_x = total_x / norm if norm > 1e-12 else 0.0
