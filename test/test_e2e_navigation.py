@@ -60,6 +60,7 @@ def test_default_seed_reaches_the_target_and_draws_the_papers_figures(tmp_path, 
     planner = read_messages(run_dir / "bag", ["/planner_state"])["/planner_state"]
     assert planner[-1][1].mode in ("arrived", "following", "avoiding", "tracking")
     assert planner[-1][1].distance_to_target < 0.6
+    assert {msg.method for _t, msg in planner} == {"paper"}  # the scenario pins the paper's planner
 
 
 # The static scenario has no random element (the seed draws the target's turns and IMU noise, and it has

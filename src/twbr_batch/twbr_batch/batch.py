@@ -329,13 +329,14 @@ def run_batch(
     record: bool = False,
 ) -> BatchResult:
     """Run len(seeds) robots of `scenario`; robot i has the parameter vector params[i] (robot_params) and
-    the world of seeds[i]. Settings default to the parameter tables; `duration` to the scenario's."""
+    the world of seeds[i]. Settings default to the parameter tables (the planner's under what the scenario
+    pins); `duration` to the scenario's."""
     n = len(seeds)
     params = np.ascontiguousarray(params, dtype=float)
     if n < 1 or params.shape[0] != n:
         raise ConfigError(f"batch: {n} seeds and {params.shape[0]} parameter rows: need as many, at least 1")
     control_cfg = resolve_controller(control)
-    planner_cfg = resolve_planner(planner)
+    planner_cfg = resolve_planner(planner, scenario)
     rate = control_cfg["rate"]
     steps_per_control = steps_per_publish(physics_rate, rate)
     duration = scenario.duration if duration is None else duration

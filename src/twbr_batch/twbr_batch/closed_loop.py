@@ -91,19 +91,22 @@ def run_closed_loop(
 def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
                       log: list | None = None) -> Reference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
-    planner node's default when None)."""
+    planner node's default when None). Its settings are `planner` over what the simulator's scenario pins,
+    so it is built at the first step, when the simulator is known."""
     from twbr_planner.apf import Obstacles
     from twbr_planner.planner import ApfPlanner, Target
     from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
     from twbr_planner.planner_params import resolve as resolve_planner
 
-    cfg = resolve_planner(planner)
+    resolve_planner(planner)  # refused here, before a run starts, when invalid on its own
     rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
-    core = ApfPlanner(cfg, rate)
     due = Decimator(rate)
-    held = {"cmd": (0.0, 0.0)}
+    held: dict[str, Any] = {"cmd": (0.0, 0.0), "core": None}
 
     def reference(t: float, sim: Simulator) -> tuple[float, float]:
+        if held["core"] is None:
+            held["core"] = ApfPlanner(resolve_planner(planner, sim.scenario), rate)
+        core = held["core"]
         if not due.due(t):
             return held["cmd"]
         s = sim.state

@@ -107,7 +107,7 @@ def robot_limits(planner: Mapping[str, Any]) -> Limits:
 def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequence[int]) -> list[SuiteRow]:
     """Runs of one scenario with one planner variant, classified."""
     scenario = load_scenario(path)
-    cfg = resolve_planner(planner)
+    cfg = resolve_planner(planner, scenario)
     limits = robot_limits(cfg)
     robot_radius = cfg["robot_radius"]
     table = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
@@ -193,7 +193,7 @@ def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: 
     seeds = list(range(1, TRACED_SEEDS + 1))
     fig, axes = plt.subplots(1, len(variants), figsize=(6.5 * len(variants), 6), squeeze=False)
     for ax, (variant, planner) in zip(axes[0], variants.items(), strict=True):
-        cfg = resolve_planner(planner)
+        cfg = resolve_planner(planner, scenario)
         result = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
                            duration=TIME_LIMIT, record=True)
         layout = vary(scenario, seeds[0])

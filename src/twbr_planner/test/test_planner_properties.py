@@ -1,7 +1,9 @@
-"""Property tests of the planner core: finite in, finite out; 0 <= v <= v_max; |omega| limited; mirror symmetry."""
+"""Property tests of the planner core: finite in, finite out; 0 <= v <= v_max; |omega| limited (both methods);
+mirror symmetry (the paper's: the robust method breaks ties to one side, the way round tries left first)."""
 
 import math
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -10,7 +12,8 @@ from twbr_planner.apf import Obstacles
 from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import APF_SPECS
 
-G = defaults(APF_SPECS)
+G = {**defaults(APF_SPECS), "method": "paper"}
+ROBUST = {**defaults(APF_SPECS), "method": "robust"}
 coord = st.floats(-50.0, 50.0)
 obstacle = st.tuples(coord, coord, st.floats(0.05, 5.0))
 situation = st.tuples(coord, coord, st.floats(-math.pi, math.pi), st.floats(-2.0, 2.0),  # robot x, y, yaw, v
@@ -23,13 +26,14 @@ def plan(planner, x, y, yaw, v, tx, ty, tvx, tvy, obstacles, steps=5):
     return [planner.step(0.05 * k, x, y, yaw, v, Target(tx, ty, tvx, tvy), obs) for k in range(steps)]
 
 
+@pytest.mark.parametrize("cfg", [G, ROBUST], ids=["paper", "robust"])
 @settings(max_examples=300, deadline=None)
-@given(situation)
-def test_commands_are_finite_and_inside_their_limits(s):
-    for out in plan(ApfPlanner(G), *s):
+@given(s=situation)
+def test_commands_are_finite_and_inside_their_limits(cfg, s):
+    for out in plan(ApfPlanner(cfg), *s):
         assert math.isfinite(out.velocity_cmd) and math.isfinite(out.yaw_rate_cmd)
-        assert 0.0 <= out.velocity_cmd <= G["v_max"]
-        assert abs(out.yaw_rate_cmd) <= G["max_yaw_rate"]
+        assert 0.0 <= out.velocity_cmd <= cfg["v_max"]  # static obstacles: nothing to back away from
+        assert abs(out.yaw_rate_cmd) <= cfg["max_yaw_rate"]
         assert all(math.isfinite(f) for f in (*out.attractive_force, *out.repulsive_force))
 
 

@@ -166,6 +166,8 @@ class PlannerNode(Node):
             self._plan_pending(force=True)
 
     def _plan(self, odom: Odometry, stamp: float, x: float, y: float, yaw: float, speed: float) -> None:
+        started = time.perf_counter()
+        planned = False
         timeout = self.cfg["world_timeout"]
         if self._target is None or self._obstacles is None:
             out = self.core.stopped(stamp, Mode.NO_TARGET)
@@ -176,8 +178,9 @@ class PlannerNode(Node):
                                    throttle_duration_sec=2.0)
         else:
             out = self.core.step(stamp, x, y, yaw, speed, self._target[1], self._obstacles_at(stamp))
+            planned = True
         self._last_plan = (stamp, out)
-        self._publish(odom, out, x, y)
+        self._publish(odom, out, x, y, time.perf_counter() - started if planned else 0.0)
 
     def _obstacles_at(self, stamp: float) -> Obstacles:
         """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
@@ -186,7 +189,7 @@ class PlannerNode(Node):
         return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius,
                               o.velocity.x, o.velocity.y) for o in msg.obstacles])
 
-    def _publish(self, odom: Odometry, out: PlannerOutput, x: float, y: float) -> None:
+    def _publish(self, odom: Odometry, out: PlannerOutput, x: float, y: float, planning_time: float = 0.0) -> None:
         twist = Twist()
         twist.linear.x, twist.angular.z = out.velocity_cmd, out.yaw_rate_cmd
         if self.stamped:
@@ -196,7 +199,7 @@ class PlannerNode(Node):
             self.pub_cmd.publish(cmd)
         else:
             self.pub_cmd.publish(twist)
-        self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision))
+        self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision, planning_time))
         if self._marker_due.due(out.stamp):
             self.pub_markers.publish(force_markers(out, odom, x, y))
 
@@ -205,8 +208,9 @@ def _vector(v: np.ndarray) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=0.0)
 
 
-def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, parameter_revision: int = 0) -> PlannerState:
-    msg = PlannerState(parameter_revision=parameter_revision)
+def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, parameter_revision: int = 0,
+                          planning_time: float = 0.0) -> PlannerState:
+    msg = PlannerState(parameter_revision=parameter_revision, planning_time=float(planning_time))
     for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance"):
         setattr(msg, name, float(cfg[name]))
     msg.header.stamp = odom.header.stamp

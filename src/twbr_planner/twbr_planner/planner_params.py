@@ -11,9 +11,10 @@ METHODS = ("paper", "robust")
 
 APF_SPECS: tuple[ParamSpec, ...] = (
     *tunable(
-    ParamSpec("method", "paper", "paper: the paper's field (eqs. 19-28 with the documented fixes); robust: the"
-              " paper's field with goal-reachable repulsion, boundary following, dynamic repulsion, a braking"
-              " speed policy and a safety filter (docs/planner.md)", choices=METHODS),
+    ParamSpec("method", "robust", "robust: the paper's field with goal-reachable repulsion, an escape from local"
+              " minima down a navigation function, dynamic repulsion, a braking speed policy and a safety filter;"
+              " paper: the paper's field (eqs. 19-28 with the documented fixes), which its three scenarios pin"
+              " (docs/planner.md)", choices=METHODS),
     ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
               low_open=True),
     ParamSpec("k_v", 0.5, "K_v: attractive gain on the target's relative velocity (eq. 21)", "1/s", 0.0, 1000.0),
@@ -108,6 +109,13 @@ def check_consistent(cfg: dict) -> dict:
     return cfg
 
 
-def resolve(overrides: Mapping[str, Any] | None = None) -> dict:
-    """The planner's settings for a headless run: the defaults with `overrides`, validated and checked."""
-    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **(overrides or {})}))
+def resolve(overrides: Mapping[str, Any] | None = None, scenario: Any = None) -> dict:
+    """The planner's settings for a headless run: the defaults, then what `scenario` pins (its `planner`
+    field), then `overrides`, validated and checked."""
+    pinned = dict(scenario.planner) if scenario is not None else {}
+    if pinned:
+        try:
+            validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned})
+        except ConfigError as e:
+            raise ConfigError(f"scenario {scenario.name!r}, field 'planner': {e}") from None
+    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned, **(overrides or {})}))

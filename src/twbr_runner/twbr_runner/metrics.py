@@ -158,7 +158,7 @@ def _finite(x: float) -> float | None:
 
 @dataclass
 class NavigationMetrics:
-    """Outcome of a run with a world (docs/metrics.md); the last two only with a planner."""
+    """Outcome of a run with a world (docs/metrics.md); the last four only with a planner."""
 
     reached: bool
     time_to_reach_s: float | None
@@ -167,6 +167,11 @@ class NavigationMetrics:
     final_target_distance_m: float | None
     pitch_by_mode: dict[str, dict[str, float]] | None = None  # mode -> pitch bounds [rad] and time in it [s]
     stuck_time_s: float | None = None
+    planning_time_median_ms: float | None = None  # the planner node's wall time per plan (planner_state)
+    planning_time_p99_ms: float | None = None
+
+
+PLANNER_ONLY = ("pitch_by_mode", "stuck_time_s", "planning_time_median_ms", "planning_time_p99_ms")
 
 
 @dataclass
@@ -221,7 +226,7 @@ class RunMetrics:
         out.update({name: r.as_dict() if r is not None else None for name, r in self.steps.items()})
         if self.navigation is not None:
             out.update({k: v for k, v in asdict(self.navigation).items()
-                        if v is not None or k not in ("pitch_by_mode", "stuck_time_s")})
+                        if v is not None or k not in PLANNER_ONLY})
         for name in ("ended_by", "run_wall_time_s", "bag"):
             value = getattr(self, name)
             if value is not None:
@@ -255,6 +260,10 @@ def navigation_metrics(s: RunSeries) -> NavigationMetrics:
                                   "time_s": float(mask.sum() * np.median(np.diff(s.odom_t)))}
         out.pitch_by_mode = per_mode
         out.stuck_time_s = per_mode.get("stuck", {}).get("time_s", 0.0)
+        planning = np.array([m.planning_time for m in s.planner if m.planning_time > 0.0])
+        if len(planning):
+            out.planning_time_median_ms = float(1e3 * np.median(planning))
+            out.planning_time_p99_ms = float(1e3 * np.percentile(planning, 99))
     return out
 
 

@@ -33,6 +33,7 @@ from twbr_common.params import ConfigError, default_of
 from twbr_common.paths import config_dir
 from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
+from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, BagSummary, RunMetrics, compute_metrics, series_from_messages
@@ -96,6 +97,13 @@ def params_files(config: Path, *names: str) -> list[str]:
     return out
 
 
+def ros_value(value: Any) -> str:
+    """A value as `ros2 run ... -p name:=value` reads it (YAML: true/false, numbers, strings)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value) if isinstance(value, float) else str(value)
+
+
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
          planner_method: str | None = None) -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
@@ -108,8 +116,12 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
     if scenario.target is not None:
-        method = ["-p", f"method:={planner_method}"] if planner_method else []
-        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node", [*params_files(config, "planner.yaml"), *method],
+        # what the scenario pins (the paper's scenarios: its method), under --planner-method
+        pinned = {**dict(scenario.planner), **({"method": planner_method} if planner_method else {})}
+        resolve_planner(pinned, scenario)  # refused before any process starts
+        overrides = [a for name, value in pinned.items() for a in ("-p", f"{name}:={ros_value(value)}")]
+        nodes.append(NodeSpec("planner", "twbr_planner", "planner_node",
+                              [*params_files(config, "planner.yaml"), *overrides],
                               recorded=("/cmd_vel", "/planner_state")))
     elif scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
@@ -278,9 +290,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     if opts.out_root.resolve() not in run_dir.resolve().parents:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
+    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
-    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
     (run_dir / "command.txt").write_text(" ".join(sys.argv) + "\n" + "\n".join(
         f"{n.label}: ros2 run {n.package} {n.executable} {' '.join(n.args)} --ros-args {' '.join(n.ros_args)}"
@@ -427,7 +439,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-figures", action="store_true")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--planner-method", choices=METHODS,
-                    help="the planner's method (default: config/planner.yaml's; docs/planner.md)")
+                    help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
                       a.planner_method)

@@ -67,6 +67,8 @@ BASE = {"duration": 10.0, "target": {"position": [1.0, 2.0]}, "obstacles": [{"po
         (lambda d: d.update(commands=[{"t": 1.0, "v": 9.0}]), "'commands[0].v' = 9.0: must be [-5, 5] m/s"),
         (lambda d: (d.pop("target"), d.update(end_on_target=True)), "'end_on_target'"),
         (lambda d: d.update(robot=[0, 0]), "'robot': must be a mapping"),
+        (lambda d: d.update(planner=["paper"]), "invalid field 'planner': must be a mapping"),
+        (lambda d: d.update(planner={"k_p": [1, 2]}), "invalid field 'planner.k_p' = [1, 2]"),
         # Before: a ZeroDivisionError traceback, a robot or a target inside an obstacle accepted, and a name
         # that wrote the run outside --out.
         (lambda d: d["obstacles"][0].update(heading="3pi/0"), "'obstacles[0].heading' = '3pi/0': divides by zero"),
@@ -170,3 +172,11 @@ def test_an_unknown_variation_field_is_refused():
         parse_scenario({**VARIED, "variation": {"obstacle_radius": 0.1}})
     with pytest.raises(ConfigError, match=r"variation\.obstacle_speed"):
         parse_scenario({**VARIED, "variation": {"obstacle_speed": 1.5}})
+
+
+def test_the_papers_navigation_scenarios_pin_the_papers_planner_and_nothing_else_does():
+    pinned = {name: dict(load_scenario(CONFIG / f"{name}.yaml").planner) for name in SCENARIOS}
+    assert pinned == {"dynamic_obstacles": {"method": "paper"}, "dynamic_target": {"method": "paper"},
+                      "static": {"method": "paper"}, "step": {}, "yaw_step": {}}
+    suite = [load_scenario(p) for p in sorted((CONFIG / "suite").glob("*.yaml"))]
+    assert suite and all(sc.planner == () for sc in suite)

@@ -8,6 +8,11 @@ A scenario may vary with the seed (`variation`): obstacles' and the target's sta
 obstacles' timing along their paths and their speeds are drawn per seed, so that a study of many seeds is
 many layouts of one kind, not one layout many times. `vary(scenario, seed)` gives the seed's layout; the
 world (sim_node, world_node, the headless runs) and the batch engine both build theirs with it.
+
+A scenario may pin planner parameters (`planner`, e.g. `{method: paper}` in the paper's three scenarios,
+which reproduce its results): every run of it uses them unless the caller sets the same parameter (the
+runner's --planner-method, the suite's methods). They are checked against the planner's parameter table
+where a run starts (twbr_planner.planner_params.resolve), not here: the simulator does not know them.
 """
 
 from __future__ import annotations
@@ -109,6 +114,7 @@ class Scenario:
     commands: tuple[CommandStep, ...] = ()
     end_on_target: bool = False
     variation: Variation = Variation()
+    planner: tuple[tuple[str, Any], ...] = ()  # planner parameters the scenario pins: (name, value)
     source: str = field(default="", compare=False)
 
 
@@ -185,6 +191,20 @@ def _section(specs: tuple[ParamSpec, ...], raw: Any, where: str, required: tuple
     return out
 
 
+def _planner_section(raw: Any) -> tuple[tuple[str, Any], ...]:
+    """The `planner` field: parameter names and plain values (their ranges are the planner's to check)."""
+    if raw is None:
+        return ()
+    if not isinstance(raw, dict):
+        raise ConfigError("invalid field 'planner': must be a mapping of planner parameters to values")
+    for key, value in raw.items():
+        if not isinstance(key, str) or not _NAME_RE.match(key):
+            raise ConfigError(f"invalid field 'planner': {key!r} is not a parameter name")
+        if not isinstance(value, (bool, int, float, str)):
+            raise ConfigError(f"invalid field 'planner.{key}' = {value!r}: must be a number, a boolean or a string")
+    return tuple(raw.items())
+
+
 def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenario:
     if not isinstance(raw, dict):
         raise ConfigError(f"scenario {source or name}: must be a mapping of fields")
@@ -200,6 +220,7 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
     obstacles_raw = raw.pop("obstacles", None) or []
     commands_raw = raw.pop("commands", None) or []
     variation = Variation(**_section(_VARIATION, raw.pop("variation", None), "variation"))
+    planner = _planner_section(raw.pop("planner", None))
     top = _section(_TOP, raw, "")
     robot = _section(_ROBOT, robot_raw, "robot")
     target = None
@@ -241,7 +262,7 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         name=name, description=description, duration=top["duration"], seed=top["seed"],
         start_x=robot["x"], start_y=robot["y"], start_yaw=robot["yaw"], start_pitch=robot["pitch"],
         target=target, obstacles=tuple(obstacles), commands=tuple(commands),
-        end_on_target=top["end_on_target"], variation=variation, source=source,
+        end_on_target=top["end_on_target"], variation=variation, planner=planner, source=source,
     )
     if (problem := layout_problem(scenario)) is not None:
         raise ConfigError(problem)

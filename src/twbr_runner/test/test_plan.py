@@ -1,0 +1,44 @@
+"""What the runner starts: the planner gets what the scenario pins, under --planner-method, or nothing starts."""
+
+from pathlib import Path
+
+import pytest
+
+from twbr_common.params import ConfigError
+from twbr_common.paths import config_dir
+from twbr_planner.planner_params import resolve
+from twbr_runner.runner import plan
+from twbr_sim.scenario import load_scenario, parse_scenario
+from twbr_sim.scenario_files import find_scenario
+
+
+def planner_args(scenario, method=None) -> list[str]:
+    nodes = plan(scenario, Path("scenario.yaml"), config_dir(), 1, Path("bag"), method)
+    (planner,) = [n for n in nodes if n.label == "planner"]
+    return planner.ros_args
+
+
+def methods(args: list[str]) -> list[str]:
+    return [a for a in args if a.startswith("method:=")]
+
+
+def test_the_papers_scenarios_run_the_papers_planner_unless_told_otherwise():
+    static = load_scenario(find_scenario("static"))
+    assert methods(planner_args(static)) == ["method:=paper"]
+    assert methods(planner_args(static, "robust")) == ["method:=robust"]
+    head_on = load_scenario(find_scenario("suite/head_on"))
+    assert methods(planner_args(head_on)) == []  # planner.yaml's, the robust default
+    assert methods(planner_args(head_on, "paper")) == ["method:=paper"]
+
+
+def test_a_scenarios_pinned_parameters_reach_the_node_and_bad_ones_are_refused_before_it_starts():
+    base = {"name": "pins", "duration": 10.0, "target": {"position": [5.0, 0.0]}}
+    pins = parse_scenario({**base, "planner": {"method": "robust", "goal_fade": 0.0, "safety_filter": False}})
+    args = planner_args(pins)
+    assert "goal_fade:=0.0" in args and "safety_filter:=false" in args
+    assert resolve(None, pins)["goal_fade"] == 0.0 and resolve({"goal_fade": 2.0}, pins)["goal_fade"] == 2.0
+    for bad, message in (({"goal_fad": 1.0}, "unknown parameter 'goal_fad'"), ({"k_p": -1.0}, "k_p")):
+        scenario = parse_scenario({**base, "planner": bad})
+        with pytest.raises(ConfigError) as e:
+            planner_args(scenario)
+        assert "scenario 'pins', field 'planner'" in str(e.value) and message in str(e.value)
