@@ -58,7 +58,7 @@ TRACED_SEEDS = 5  # paths drawn per scenario and method
 ABLATIONS: dict[str, dict[str, Any]] = {
     "robust": {},
     "no goal fade": {"goal_fade": 0.0},
-    "no boundary following": {"follow_range": 0.0},
+    "no escape": {"follow_range": 0.0},  # neither the navigation function nor boundary following
     "no dynamic repulsion": {"evade_horizon": 0.0},
     "no speed policy": {"speed_policy": False},
     "no safety filter": {"safety_filter": False},

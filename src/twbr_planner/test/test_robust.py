@@ -226,3 +226,16 @@ def test_a_dead_on_obstacle_is_passed_on_the_side_first_chosen():
     _ex, _ey, _threat, tx, _ty = evasion(A, memory(), 0.0, 0.0, 0.45, 0.0, np.array([[1.05, -3.0]]),
                                          velocities, radii, moving)
     assert tx > 0.0
+
+
+def test_a_way_behind_the_robot_is_turned_to_the_way_it_already_turns():
+    # The target moves from just left of straight behind to just right of it: a robot already turning left
+    # keeps turning left (either way round is as short) instead of reversing its turn at every step.
+    planner = ApfPlanner(ROBUST)
+    for k in range(10):
+        turning = planner.step(0.05 * k, 0.0, 0.0, 0.0, 0.0, Target(-5.0, 0.4, 0.0, 0.0), Obstacles.empty())
+    assert turning.yaw_rate_cmd > 0.1
+    out = planner.step(0.5, 0.0, 0.0, 0.0, 0.0, Target(-5.0, -0.4, 0.0, 0.0), Obstacles.empty())
+    assert out.yaw_rate_cmd > 0.1
+    fresh = settled(ApfPlanner(ROBUST), 0.0, 0.0, 0.0, 0.0, Target(-5.0, -0.4, 0.0, 0.0), Obstacles.empty(), steps=10)
+    assert fresh.yaw_rate_cmd < -0.1

@@ -47,10 +47,11 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " detection range of the speed policy and the safety filter)", "m", 0.0, 100.0, low_open=True),
     ParamSpec("goal_fade", 1.5, "robust: the repulsion is scaled by min(1, (distance to target / goal_fade)^2)"
               " so that it vanishes at the target; 0 turns it off", "m", 0.0, 100.0),
-    ParamSpec("follow_range", 1.0, "robust: a way to the target blocked this close starts boundary following"
-              " (the local-minimum escape); 0 turns it off", "m", 0.0, 100.0),
-    ParamSpec("follow_clearance", 0.45, "robust: clearance kept while following a boundary", "m", 0.0, 100.0,
-              low_open=True),
+    ParamSpec("follow_range", 1.0, "robust: a way to the target blocked this close starts the local-minimum"
+              " escape (down a navigation function; boundary following where no way leads to the target); 0 turns"
+              " it off", "m", 0.0, 100.0),
+    ParamSpec("follow_clearance", 0.45, "robust: clearance kept while following a boundary (the escape where no"
+              " way leads to the target)", "m", 0.0, 100.0, low_open=True),
     ParamSpec("evade_horizon", 8.0, "robust: a moving obstacle whose closest approach comes within this time"
               " pushes the robot out of its path; 0 turns it off", "s", 0.0, 1000.0),
     ParamSpec("evade_margin", 0.4, "robust: an approach closer than this to the footprint is a threat", "m",

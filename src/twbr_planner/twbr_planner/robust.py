@@ -105,6 +105,8 @@ OMEGA_CANDIDATES = 11  # and of yaw rates
 OMEGA_WEIGHT = 0.1  # [s^2] cost of a yaw-rate change against a speed change
 MOVING_NEAR = 0.5  # [m] the safety filter guards against an obstacle faster than the robot only this near
 EVADE_SWITCH = 0.3  # [m] a dead-on obstacle is passed on the side first chosen until the other is this clearer
+BEHIND = math.pi - 0.5  # [rad] a way further round than this is nearly behind the robot
+TURNING = 0.05  # [rad/s] a robot turning faster than this keeps its turn's direction towards a way behind it
 REVERSE_BELOW = 0.05  # [m/s] evading, a robot slower than this may back away
 VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal
 
@@ -471,6 +473,11 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     if threat >= 0 and abs(error) > 0.5 * math.pi and m[R_LAST_V] < REVERSE_BELOW:
         direction = -1.0
         error = wrap_angle(error + math.pi)
+    # A way nearly behind is turned to the way the robot already turns: either way round is as short, and
+    # a heading error dithering about +-pi (an evasion that nearly cancels the field) would reverse the
+    # turn at every step.
+    if abs(error) > BEHIND and m[R_LAST_OMEGA] * error < 0.0 and abs(m[R_LAST_OMEGA]) > TURNING:
+        error -= math.copysign(2.0 * math.pi, error)
     omega = min(max(a[A_K_S] * error, -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
     # 4. speed
     v = a[A_V_MAX]
