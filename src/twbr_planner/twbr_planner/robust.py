@@ -405,21 +405,21 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         escape_y = 0.0
         found = False
         if m[R_FOLLOWING] != 0.0:
-            elapsed = stamp - m[R_FOLLOW_SINCE]
-            escape_x, escape_y, found = navigation_direction(x, y, target_x, target_y, positions, radii, moving,
-                                                             robot_radius + FREE_MARGIN)
             # TangentBug's leave rule: closer than where following began, and a free way towards the target
             # for WAY_LOOK (what lies beyond is met as it comes)
             if way_free and (distance < m[R_HIT_DISTANCE] - LEAVE_PROGRESS or moving_target):
                 m[R_FOLLOWING] = 0.0
-            elif found:
-                pass
-            elif near_boundary == math.inf:
-                m[R_FOLLOWING] = 0.0  # lost the boundary: back to the field
-            elif elapsed > FOLLOW_FLIP:
-                m[R_FOLLOW_SIDE] = -m[R_FOLLOW_SIDE]
-                m[R_FOLLOW_SINCE] = stamp
-                m[R_HIT_DISTANCE] = distance
+            else:  # the A* runs only while the escape goes on
+                escape_x, escape_y, found = navigation_direction(x, y, target_x, target_y, positions, radii,
+                                                                 moving, robot_radius + FREE_MARGIN)
+                if found:
+                    pass
+                elif near_boundary == math.inf:
+                    m[R_FOLLOWING] = 0.0  # no way and lost the boundary: back to the field
+                elif stamp - m[R_FOLLOW_SINCE] > FOLLOW_FLIP:
+                    m[R_FOLLOW_SIDE] = -m[R_FOLLOW_SIDE]
+                    m[R_FOLLOW_SINCE] = stamp
+                    m[R_HIT_DISTANCE] = distance
         elif near_boundary < math.inf and (
                 (not way_free and blocked_at <= a[A_FOLLOW_RANGE] + robot_radius)  # no way, blocked close by
                 or total_x * way_x + total_y * way_y < 0.0  # or the field pushes away from the way: a basin
