@@ -8,7 +8,7 @@ the same cores as the node graph, thousands of times faster.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -17,10 +17,12 @@ from twbr_common.params import default_of, defaults, validate_all
 from twbr_common.timing import Decimator
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import resolve as resolve_controller
+from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_sim import dynamics as dyn
+from twbr_sim.encoders import J_VELOCITY, J_YAW_RATE
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
-from twbr_sim.simulator import SIM_SPECS, Simulator
+from twbr_sim.simulator import SIM_SPECS, Simulator, TractionTally
 
 # (velocity_ref, yaw_rate_ref) at sim time t, given the simulator (for planners that read the state).
 Reference = Callable[[float, Simulator], tuple[float, float]]
@@ -37,6 +39,9 @@ class Trace:
     wheel_torque_left: np.ndarray  # delivered by the motors [N·m]
     wheel_torque_right: np.ndarray
     fallen: bool
+    pitch_true: np.ndarray  # the body's pitch [rad] (outputs["pitch"] is what the controller used)
+    velocity_true: np.ndarray  # the axle's forward speed [m/s]
+    traction: TractionTally
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.outputs[name]
@@ -65,19 +70,30 @@ def run_closed_loop(
     simulator = Simulator(robot_params(validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **(robot or {})})),
                           sim_cfg, scenario, seed)
     controller = CascadeController(control_cfg)
+    estimator = PitchEstimator(control_cfg)
+    estimate = uses_estimator(control_cfg["pitch_source"], simulator.imu_model.raw)
     n = round(duration * control_cfg["rate"]) + 1
     rows: list[ControlOutput] = []
-    path = np.empty((n, 4))
+    path = np.empty((n, 6))
     for k in range(n):
         t = simulator.time
         s = simulator.state
-        reading = simulator.imu()
+        sample = simulator.sense()
+        reading, odom = sample.imu, sample.encoders  # what the imu and odom messages carry
+        velocity, yaw_rate = odom[J_VELOCITY], odom[J_YAW_RATE]
+        pitch, pitch_rate = reading.pitch, reading.angular_velocity[1]
+        if estimate:
+            pitch, pitch_rate = estimator.update(t, pitch_rate, reading.linear_acceleration[0],
+                                                 reading.linear_acceleration[2], velocity)
         v_ref, w_ref = reference(t, simulator)
-        out = controller.compute(t, v_ref, w_ref, s[dyn.S_XD], s[dyn.S_PSID], reading.pitch,
-                                 reading.angular_velocity[1])
+        out = controller.compute(t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate)
+        if estimate:
+            out = replace(out, pitch_estimated=True, gyro_bias=estimator.bias,
+                          accelerometer_pitch=estimator.accelerometer_pitch)
         rows.append(out)
         path[k, :2] = s[dyn.S_XC], s[dyn.S_YC]
-        path[k, 2:] = simulator.wheel_torques()
+        path[k, 2:4] = simulator.wheel_torques()
+        path[k, 4:] = s[dyn.S_TH], s[dyn.S_XD]
         if k == n - 1 or (stop_on_fall and simulator.fallen) or (stop is not None and stop(simulator)):
             path = path[: k + 1]
             break
@@ -85,7 +101,8 @@ def run_closed_loop(
         simulator.advance(simulator.steps_per_publish)
     names = [f.name for f in fields(ControlOutput)]
     outputs = {name: np.array([getattr(r, name) for r in rows], dtype=float) for name in names}
-    return Trace(outputs["stamp"], outputs, path[:, 0], path[:, 1], path[:, 2], path[:, 3], simulator.fallen)
+    return Trace(outputs["stamp"], outputs, path[:, 0], path[:, 1], path[:, 2], path[:, 3], simulator.fallen,
+                 path[:, 4], path[:, 5], simulator.traction)
 
 
 def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,

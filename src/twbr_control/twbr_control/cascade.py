@@ -95,6 +95,9 @@ class ControlOutput:
     cmd_vel_stale: bool
     fallen: bool
     enabled: bool
+    pitch_estimated: bool = False  # pitch and pitch_rate came from the estimator (raw IMU)
+    gyro_bias: float = 0.0  # the estimator's gyro bias about y [rad/s]
+    accelerometer_pitch: float = 0.0  # the accelerometer's pitch, forward acceleration taken off [rad]
 
 
 @kernel

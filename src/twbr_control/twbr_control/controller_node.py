@@ -11,6 +11,8 @@ clock for a plain Twist): state_sync.VelocityCommand.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
@@ -25,6 +27,7 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stam
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
+from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import Action, RobotState, StateSync, VelocityCommand
 from twbr_msgs.msg import ControllerState, WheelTorques
 
@@ -36,6 +39,7 @@ class ControllerNode(Node):
         self.cfg = cfg
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.controller.warm_up()  # before any publisher: once peers see this node, it answers on time
+        self.estimator = PitchEstimator(cfg)
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
         self.command = VelocityCommand(cfg["cmd_vel_timeout"])
         self.inputs = input_streams(self)
@@ -60,7 +64,8 @@ class ControllerNode(Node):
         self.parameter_revision = 0
         accept_changes(self, (*CONTROL_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
         self.get_logger().info(
-            f"cascaded PID at up to {cfg['rate']:g} Hz, cmd_vel as {'TwistStamped' if stamped else 'Twist'},"
+            f"cascaded PID at up to {cfg['rate']:g} Hz, pitch from {cfg['pitch_source']},"
+            f" cmd_vel as {'TwistStamped' if stamped else 'Twist'},"
             f" {'enabled' if cfg['start_enabled'] else 'disabled until ~/enable'}"
         )
 
@@ -74,6 +79,9 @@ class ControllerNode(Node):
             self.get_logger().warning("clock jumped back: controller, state pairing and cmd_vel restarted")
         self.sync.reset()
         self.controller.reset()
+        self.estimator.reset()
+        self._velocity = 0.0  # the last admitted odom's speed, for the estimator [m/s]
+        self._estimated = False
         self.command.reset()
         self._last_command: WheelTorques | None = None
         self._stamps: dict[str, Time] = {}
@@ -85,17 +93,33 @@ class ControllerNode(Node):
         stamp = stamp_seconds(msg.header.stamp)
         velocity, yaw_rate = msg.twist.twist.linear.x, msg.twist.twist.angular.z
         if self._admit("odom", stamp, (velocity, yaw_rate)):
+            self._velocity = velocity
             self._stamps["odom"] = msg.header.stamp
             self._act(*self.sync.offer_odom(stamp, velocity, yaw_rate))
 
     def _on_imu(self, msg: Imu) -> None:
         stamp = stamp_seconds(msg.header.stamp)
-        o = msg.orientation
-        _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
-        pitch_rate = msg.angular_velocity.y
-        if self._admit("imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
-            self._stamps["imu"] = msg.header.stamp
-            self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
+        raw = msg.orientation_covariance[0] == -1.0
+        gyro_y, a = msg.angular_velocity.y, msg.linear_acceleration
+        if uses_estimator(self.cfg["pitch_source"], raw):
+            if not self._admit("imu", stamp, (gyro_y, a.x, a.z)):
+                return
+            pitch, pitch_rate = self.estimator.update(stamp, gyro_y, a.x, a.z, self._velocity)
+            self._estimated = True
+        else:
+            if raw:
+                self.get_logger().error("imu reports no orientation (orientation_covariance[0] = -1) and"
+                                        " pitch_source is 'orientation': reading dropped; set pitch_source"
+                                        " to auto or estimator", throttle_duration_sec=5.0)
+                return
+            o = msg.orientation
+            _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
+            pitch_rate = gyro_y
+            if not self._admit("imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
+                return
+            self._estimated = False
+        self._stamps["imu"] = msg.header.stamp
+        self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
 
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
         values = (twist.linear.x, twist.angular.z)
@@ -130,6 +154,9 @@ class ControllerNode(Node):
             velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
             out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)
+            if self._estimated:
+                out = replace(out, pitch_estimated=True, gyro_bias=self.estimator.bias,
+                              accelerometer_pitch=self.estimator.accelerometer_pitch)
             # The newer of the two stamps, exactly as received (a lockstep simulator compares nanoseconds).
             self._publish(out, max(self._stamps.values(), key=stamp_ns))
 

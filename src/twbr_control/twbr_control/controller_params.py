@@ -40,6 +40,15 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               0.0, 1000.0, low_open=True),
     ParamSpec("fall_pitch", 0.6, "|pitch - pitch_offset| past this is a fall: zero torque until re-enabled",
               "rad", 0.05, 1.5)),
+    ParamSpec("pitch_source", "auto", "where pitch and pitch rate come from: the imu's orientation and"
+              " angular_velocity.y (orientation), the estimator on gyro and accelerometer (estimator), or the"
+              " estimator only when the imu reports no orientation, orientation_covariance[0] = -1 (auto)",
+              choices=("auto", "orientation", "estimator")),
+    ParamSpec("estimator.time_constant", 0.5, "estimator: time constant with which the accelerometer's gravity"
+              " direction corrects the integrated gyro (shorter: follows the accelerometer's noise and the"
+              " robot's accelerations more)", "s", 0.01, 10.0),
+    ParamSpec("estimator.bias_time_constant", 5.0, "estimator: time constant of the gyro bias estimate; 0: no"
+              " bias estimation", "s", 0.0, 1000.0),
     ParamSpec("max_sample_gap", 0.05, "a longer gap between states restarts the derivatives and caps the"
               " integration step", "s", 0.001, 1.0),
     *GAIN_SPECS,

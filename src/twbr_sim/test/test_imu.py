@@ -38,15 +38,18 @@ def test_turning_adds_centripetal_acceleration_and_yaw_rate():
     assert r.angular_velocity[2] == pytest.approx(0.5)
 
 
+def model(seed=1, rate=200.0, **settings):
+    return ImuModel({**defaults(IMU_SPECS), **settings}, seed, rate)
+
+
 def test_noise_is_seeded_and_off_by_default():
     p = robot_params()
     s = dyn.initial_state(pitch=0.05)
     ds = dyn.state_derivative(p, s, 0, 0)
-    quiet = ImuModel(defaults(IMU_SPECS), seed=1)
-    assert quiet.read(p, s, ds) == ideal_reading(p, s, ds)
-    noisy = {**defaults(IMU_SPECS), "imu.gyro_noise_std": 0.01, "imu.accel_bias_std": 0.2}
-    a = [ImuModel(noisy, seed=5).read(p, s, ds) for _ in range(2)]
-    b = ImuModel(noisy, seed=6).read(p, s, ds)
+    assert model().read(p, s, ds) == ideal_reading(p, s, ds)
+    noisy = {"imu.gyro_noise_std": 0.01, "imu.accel_bias_std": 0.2}
+    a = [model(5, **noisy).read(p, s, ds) for _ in range(2)]
+    b = model(6, **noisy).read(p, s, ds)
     assert a[0] == a[1]
     assert a[0] != b
 
@@ -55,8 +58,38 @@ def test_gyro_noise_has_the_requested_spread():
     p = robot_params()
     s = dyn.initial_state()
     ds = dyn.state_derivative(p, s, 0, 0)
-    model = ImuModel({**defaults(IMU_SPECS), "imu.gyro_noise_std": 0.02}, seed=2)
-    rates = np.array([model.read(p, s, ds).angular_velocity[1] for _ in range(4000)])
+    imu = model(2, **{"imu.gyro_noise_std": 0.02})
+    rates = np.array([imu.read(p, s, ds).angular_velocity[1] for _ in range(4000)])
     assert rates.std() == pytest.approx(0.02, rel=0.05)
     assert abs(rates.mean()) < 0.002
     assert not math.isclose(rates[0], rates[1])
+
+
+def test_bias_walk_spreads_as_the_square_root_of_time():
+    """A rate random walk of w rad/s/sqrt(s) leaves the bias with std w*sqrt(t) after t seconds: over 400
+    IMUs, 4 s at 200 Hz, the spread is 0.01*2 = 0.02 rad/s (within 15 %), and 0.01 after 1 s."""
+    p = robot_params()
+    s = dyn.initial_state()
+    ds = dyn.state_derivative(p, s, 0, 0)
+    at_1, at_4 = [], []
+    for seed in range(400):
+        imu = model(seed, **{"imu.gyro_bias_walk": 0.01})
+        rates = [imu.read(p, s, ds).angular_velocity[1] for _ in range(800)]
+        at_1.append(rates[199])
+        at_4.append(rates[799])
+    assert np.std(at_1) == pytest.approx(0.01, rel=0.15)
+    assert np.std(at_4) == pytest.approx(0.02, rel=0.15)
+
+
+def test_delay_reports_the_reading_of_earlier_states():
+    """5 ms at 200 Hz is one publish period: each reading is that of the state before (the first repeats)."""
+    p = robot_params()
+    imu = model(**{"imu.delay": 0.005})
+    states = [dyn.initial_state(pitch=0.01 * k) for k in range(4)]
+    pitches = [imu.read(p, s, dyn.state_derivative(p, s, 0, 0)).pitch for s in states]
+    assert pitches == pytest.approx([0.0, 0.0, 0.01, 0.02])
+
+
+def test_raw_mode_is_a_setting_the_reading_keeps_its_rates():
+    assert model(**{"imu.raw": True}).raw
+    assert not model().raw

@@ -37,12 +37,14 @@ from twbr_common.ros_io import (
 from twbr_common.ros_params import declare, run_node
 from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
+from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
 from twbr_sim.stepping import LockstepExchange, Publications, RealtimeTicks, TimeoutAction
+from twbr_sim.traction import T_DEMAND_LEFT, T_DEMAND_RIGHT, T_NORMAL_LEFT, T_NORMAL_RIGHT
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
@@ -149,20 +151,25 @@ class SimNode(Node):
         due = self.publications.with_state(sim.time, self.hosting_world)
         world = self.world_messages(stamp) if due.world else []
         s = sim.state
+        sample = sim.sense()
+        e = sample.encoders
         odom = self._odom_msg
         odom.header.stamp = stamp
         pose = odom.pose.pose
-        pose.position.x, pose.position.y = s[dyn.S_XC], s[dyn.S_YC]
+        # Pose and twist as the wheel odometry gives them; the pitch and its rate are the true ones (ground
+        # truth for the bag's metrics: the controller takes them from the imu only).
+        pose.position.x, pose.position.y = e[J_X], e[J_Y]
         q = pose.orientation
-        q.x, q.y, q.z, q.w = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
+        q.x, q.y, q.z, q.w = quaternion_from_rpy(0.0, s[dyn.S_TH], e[J_YAW])
         twist = odom.twist.twist
-        twist.linear.x, twist.angular.y, twist.angular.z = s[dyn.S_XD], s[dyn.S_THD], s[dyn.S_PSID]
+        twist.linear.x, twist.angular.y, twist.angular.z = e[J_VELOCITY], s[dyn.S_THD], e[J_YAW_RATE]
 
-        reading = sim.imu()
+        reading = sample.imu
         imu = self._imu_msg
         imu.header.stamp = stamp
-        q = imu.orientation
-        q.x, q.y, q.z, q.w = quaternion_from_rpy(reading.roll, reading.pitch, reading.yaw)
+        if not sim.imu_model.raw:
+            q = imu.orientation
+            q.x, q.y, q.z, q.w = quaternion_from_rpy(reading.roll, reading.pitch, reading.yaw)
         av, la = imu.angular_velocity, imu.linear_acceleration
         av.x, av.y, av.z = reading.angular_velocity
         la.x, la.y, la.z = reading.linear_acceleration
@@ -201,22 +208,25 @@ class SimNode(Node):
             (imu.linear_acceleration_covariance, cfg["imu.accel_noise_std"]),
         ):
             cov[0] = cov[4] = cov[8] = std * std
+        if cfg["imu.raw"]:  # REP 145: no orientation estimate
+            imu.orientation_covariance[0] = -1.0
+            imu.orientation.w = 0.0
         return Clock(), odom, imu
 
     def publish_telemetry(self) -> None:
         """Everything else about the state just published: joints, tf, status, markers."""
         sim = self.sim
         stamp = to_stamp(self.exchange.pending_ns)
-        s = sim.state
         joints = JointState()
         joints.header.stamp = stamp
         joints.name = WHEEL_JOINTS
-        joints.position = [float(s[dyn.S_GL]), float(s[dyn.S_GR])]
-        joints.velocity = list(sim.wheel_rates())
+        e = sim.sense().encoders
+        joints.position = [float(e[J_ANGLE_LEFT]), float(e[J_ANGLE_RIGHT])]
+        joints.velocity = [float(e[J_RATE_LEFT]), float(e[J_RATE_RIGHT])]
         joints.effort = list(sim.wheel_torques())
         self.pub_joints.publish(joints)
 
-        flags = (sim.fallen, sim.torque_saturated, sim.command_stale)
+        flags = (sim.fallen, sim.torque_saturated, sim.command_stale, sim.traction.lifted, sim.traction.slipping)
         due = self.publications.with_telemetry(sim.time, flags != self._status_flags, self.hosting_world)
         if due.tf:
             tf = TransformStamped()
@@ -260,6 +270,14 @@ class SimNode(Node):
         msg.commands_rejected = sim.guard.rejected_total
         msg.lockstep_timeouts = sim.lockstep_timeouts
         msg.steps = sim.step_count
+        loads, tally = sim.sense().loads, sim.traction
+        msg.normal_force_left, msg.normal_force_right = float(loads[T_NORMAL_LEFT]), float(loads[T_NORMAL_RIGHT])
+        msg.friction_demand_left = float(loads[T_DEMAND_LEFT])
+        msg.friction_demand_right = float(loads[T_DEMAND_RIGHT])
+        msg.wheel_lifted, msg.wheel_slipping = tally.lifted, tally.slipping
+        msg.lift_events, msg.slip_events = tally.lift_events, tally.slip_events
+        msg.lifted_time = tally.lifted_samples / self.cfg["publish_rate"]
+        msg.slipping_time = tally.slipping_samples / self.cfg["publish_rate"]
         return msg
 
     def world_messages(self, stamp) -> list[tuple]:

@@ -1,4 +1,4 @@
-"""The simulated robot side of the graph, without ROS: dynamics + motors + IMU + world + command admission.
+"""The simulated robot side of the graph, without ROS: dynamics + motors + sensors + world + command admission.
 
 sim_node is a thin adapter around this class; tests and headless runs drive it directly. Time is kept
 as an integer count of physics steps so that sim time never drifts.
@@ -14,9 +14,15 @@ import numpy as np
 from twbr_common.guard import INPUT_SPECS, TORQUE_LIMIT, InputGuard, Verdict, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
+from twbr_sim.encoders import ENCODER_SPECS, J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
+from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
+from twbr_sim.encoders import new_memory as new_encoder_memory
+from twbr_sim.encoders import settings_vector as encoder_vector
 from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
 from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario
+from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
+from twbr_sim.traction import TRACTION_SPECS, traction_flags, wheel_loads
 from twbr_sim.world import Assessment, World
 
 SIM_SPECS: tuple[ParamSpec, ...] = (
@@ -56,8 +62,40 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("odom_frame", "odom", "fixed frame of odom, target and obstacles"),
     ParamSpec("base_frame", "base_link", "robot frame (axle centre, pitched with the body)"),
     *IMU_SPECS,
+    *ENCODER_SPECS,
+    *TRACTION_SPECS,
     *INPUT_SPECS,
 )
+
+
+@dataclass
+class SensorSample:
+    """What the robot's sensors report with one published state (sense())."""
+
+    imu: ImuReading
+    encoders: np.ndarray  # encoders.OUTPUT_LAYOUT: joint angles and rates, odometry pose and twist
+    loads: np.ndarray  # traction.OUTPUT_LAYOUT: normal forces and friction demands [N]
+    wheel_lifted: bool
+    wheel_slipping: bool
+
+
+@dataclass
+class TractionTally:
+    """Published states with a wheel lifted / slipping, and how often each began."""
+
+    lifted_samples: int = 0
+    slipping_samples: int = 0
+    lift_events: int = 0
+    slip_events: int = 0
+    lifted: bool = False
+    slipping: bool = False
+
+    def add(self, lifted: bool, slipping: bool) -> None:
+        self.lift_events += lifted and not self.lifted
+        self.slip_events += slipping and not self.slipping
+        self.lifted_samples += lifted
+        self.slipping_samples += slipping
+        self.lifted, self.slipping = lifted, slipping
 
 
 @dataclass(frozen=True)
@@ -88,7 +126,12 @@ class Simulator:
                                 future_tolerance=future_tolerance(settings["future_tolerance"], sim_time=True))
         self.scenario = scenario
         self.world = World(scenario, robot[P_ROBOT_RADIUS], seed) if scenario is not None else None
-        self.imu_model = ImuModel(settings, seed)
+        self.imu_model = ImuModel(settings, seed, settings["publish_rate"])
+        self._encoder_c = encoder_vector(settings, settings["publish_rate"])
+        self._encoder_m = new_encoder_memory(self._encoder_c)
+        self.friction = settings["traction.friction"]
+        self.traction = TractionTally()
+        self._sample: tuple[int, SensorSample] | None = None
         sc = scenario
         self.state = dyn.initial_state(
             sc.start_x if sc else 0.0, sc.start_y if sc else 0.0,
@@ -105,9 +148,8 @@ class Simulator:
         """Load the compiled kernels now, on a copy, so the first published state is on time."""
         twin = copy.deepcopy(self)
         twin.advance(2 * twin.steps_per_publish)
-        twin.imu()
+        twin.sense()
         twin.wheel_torques()
-        twin.wheel_rates()
         twin.assess()
 
     @property
@@ -153,15 +195,35 @@ class Simulator:
         left, right = self.applied_command()
         return dyn.state_derivative(self.p, self.state, left, right)
 
+    def sense(self) -> SensorSample:
+        """The sensors' reading of the current state: taken once per state (the sensors have memory: delay,
+        bias walk, encoder counts), so asking again at the same step returns the same sample."""
+        if self._sample is not None and self._sample[0] == self.step_count:
+            return self._sample[1]
+        ds = self.derivative()
+        imu = self.imu_model.read(self.p, self.state, ds)
+        encoders = np.zeros(N_ENCODER_OUTPUTS)
+        encoder_sample(self.p, self._encoder_c, self._encoder_m, self.state, encoders)
+        loads = np.zeros(N_TRACTION_OUTPUTS)
+        lifted = slipping = False
+        if not self.fallen:
+            wheel_loads(self.p, self.state, ds, loads)
+            lifted, slipping = traction_flags(loads, self.friction)
+        self.traction.add(lifted, slipping)
+        sample = SensorSample(imu, encoders, loads, lifted, slipping)
+        self._sample = (self.step_count, sample)
+        return sample
+
     def imu(self) -> ImuReading:
-        return self.imu_model.read(self.p, self.state, self.derivative())
+        return self.sense().imu
 
     def wheel_torques(self) -> tuple[float, float]:
         return dyn.wheel_torques(self.p, self.state)
 
     def wheel_rates(self) -> tuple[float, float]:
-        left, right = dyn.wheel_rates(self.p, self.state[dyn.S_XD], self.state[dyn.S_PSID])
-        return float(left), float(right)
+        """The joint rates the encoders report now [rad/s]."""
+        e = self.sense().encoders
+        return float(e[J_RATE_LEFT]), float(e[J_RATE_RIGHT])
 
     def assess(self) -> Assessment | None:
         if self.world is None:
