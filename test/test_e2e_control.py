@@ -19,6 +19,7 @@ from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
 
+from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.param_files import node_parameters
 from twbr_msgs.msg import ControllerState, SimStatus
 from twbr_runner.bag_reader import bag_info, read_messages
@@ -93,6 +94,34 @@ def test_yaw_rate_step_through_the_runner(tmp_path, ros_domain):
     assert yaw["settle_time_s"] <= 1.5 and yaw["steady_state_error_pct"] < 2.0
     assert not metrics["fallen"] and metrics["lockstep_timeouts"] == 0
     assert metrics["velocity_step"]["settle_time_s"] <= 1.5  # the forward step while turning
+
+
+def test_step_with_realistic_sensors_the_controller_estimates_pitch(tmp_path, ros_domain):
+    """The runner's --sensors realistic: the simulator's imu has no orientation, noise, bias and 5 ms delay, its
+    odometry comes from 1024-count encoders; the controller estimates pitch and keeps the robot up, and the
+    bag keeps the truth beside what the sensors said."""
+    done = run_scenario(tmp_path, ros_domain, "step", "--sensors", "realistic", "--no-figures")
+    run = only_run_dir(tmp_path)
+    messages = read_messages(run / "bag")
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert not metrics["fallen"], done.stdout + done.stderr
+    imu = [m for _, m in messages["/imu"]]
+    assert all(m.orientation_covariance[0] == -1.0 for m in imu)
+    state = [m for _, m in messages["/controller_state"]]
+    assert all(m.pitch_estimated for m in state)
+    truth = {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec: m for _, m in messages["/ground_truth"]}
+    errors = []
+    for m in state:
+        true = truth[m.header.stamp.sec * 10**9 + m.header.stamp.nanosec].pose.pose.orientation
+        errors.append(m.pitch - rpy_from_quaternion(true.x, true.y, true.z, true.w)[1])
+    rms = float(np.sqrt(np.mean(np.square(errors))))
+    assert rms < 0.02  # 5 mg of accelerometer bias alone is 5 mrad
+    # odom is dead reckoning from counts: its speed moves in half counts (two wheels) per 20 ms window
+    speeds = np.array([m.twist.twist.linear.x for _, m in messages["/odom"]])[4:]  # once the window is full
+    quantum = 2 * np.pi / 1024 * 0.1 / 0.02 / 2  # the mean of two wheels
+    assert np.allclose(speeds / quantum, np.round(speeds / quantum), atol=1e-6)
+    status = messages["/sim_status"][-1][1]
+    assert status.lift_events == 0 and status.normal_force_left > 0.0
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])

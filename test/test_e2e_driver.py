@@ -32,8 +32,18 @@ def test_sim_node_passes_every_check(launch, ros_env):
     done = check_driver(ros_env)
     assert done.returncode == 0, done.stdout + done.stderr
     lines = [line for line in done.stdout.splitlines() if line.startswith(("PASS", "FAIL"))]
-    assert len(lines) == 17 and all(line.startswith("PASS") for line in lines)
-    assert "17 of 17 checks passed" in done.stdout
+    assert len(lines) == 18 and all(line.startswith("PASS") for line in lines)
+    assert "18 of 18 checks passed" in done.stdout
+    assert "PASS  imu kind: orientation reported" in done.stdout
+
+
+def test_a_raw_imu_driver_passes_and_is_named(launch, ros_env):
+    """sim_node with realistic sensors: no orientation in the imu (covariance[0] = -1), noise, delay, encoders."""
+    launch("twbr_sim", "sim_node", params=("robot.yaml", "sim.yaml", "sensors_realistic.yaml"))
+    done = check_driver(ros_env)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "18 of 18 checks passed" in done.stdout
+    assert "PASS  imu kind: raw" in done.stdout
 
 
 BROKEN = [

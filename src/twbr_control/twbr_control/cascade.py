@@ -1,5 +1,6 @@
 """The paper's cascaded controller (its Figure 3) as a compiled kernel and a small class around it.
 
+References shaped by a ramp each (reference_ramp.*), then
 velocity PID: v_ref - v -> pitch_ref (limited) ; pitch PID: pitch_ref - pitch -> common wheel torque ;
 yaw-rate PI: omega_ref - omega -> differential torque. Left = common - differential, right = common +
 differential, each limited to the motor torque, balance first: the differential part gets only the
@@ -29,7 +30,8 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 # gains (pid.GAINS_LAYOUT each).
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
-    "max_sample_gap", ("velocity", N_GAINS), ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
+    "max_sample_gap", "reference_ramp.velocity", "reference_ramp.yaw_rate", ("velocity", N_GAINS),
+    ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
 C_PERIOD = SETTINGS_LAYOUT["period"]
 C_MAX_V_REF = SETTINGS_LAYOUT["max_velocity_ref"]
@@ -38,6 +40,8 @@ C_PITCH_OFFSET = SETTINGS_LAYOUT["pitch_offset"]
 C_MAX_TORQUE = SETTINGS_LAYOUT["max_wheel_torque"]
 C_FALL_PITCH = SETTINGS_LAYOUT["fall_pitch"]
 C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
+C_V_RAMP = SETTINGS_LAYOUT["reference_ramp.velocity"]
+C_W_RAMP = SETTINGS_LAYOUT["reference_ramp.yaw_rate"]
 C_VELOCITY = SETTINGS_LAYOUT["velocity"]
 C_PITCH = SETTINGS_LAYOUT["pitch"]
 C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
@@ -45,7 +49,8 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
-    ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_ref_target", "yaw_rate_ref_target", "velocity_ref_slope",
+    "yaw_rate_ref_slope", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
@@ -53,6 +58,12 @@ K_COMMON_SAT = MEMORY_LAYOUT["common_saturated"]
 K_DIFF_SAT = MEMORY_LAYOUT["differential_saturated"]
 K_FALLEN = MEMORY_LAYOUT["fallen"]
 K_ENABLED = MEMORY_LAYOUT["enabled"]
+K_V_SHAPED = MEMORY_LAYOUT["velocity_ref_shaped"]
+K_W_SHAPED = MEMORY_LAYOUT["yaw_rate_ref_shaped"]
+K_V_TARGET = MEMORY_LAYOUT["velocity_ref_target"]
+K_W_TARGET = MEMORY_LAYOUT["yaw_rate_ref_target"]
+K_V_SLOPE = MEMORY_LAYOUT["velocity_ref_slope"]
+K_W_SLOPE = MEMORY_LAYOUT["yaw_rate_ref_slope"]
 K_VELOCITY = MEMORY_LAYOUT["velocity"]
 K_PITCH = MEMORY_LAYOUT["pitch"]
 K_YAW_RATE = MEMORY_LAYOUT["yaw_rate"]
@@ -60,7 +71,7 @@ N_STATE = len(MEMORY_LAYOUT)
 # Output vector of one sample.
 OUTPUT_LAYOUT = Layout((
     "velocity_ref", "yaw_rate_ref", "pitch_ref", "common_torque", "differential_torque", "left_torque",
-    "right_torque", "dt", "pitch_ref_limited", "torque_saturated",
+    "right_torque", "dt", "pitch_ref_limited", "torque_saturated", "velocity_ref_shaped", "yaw_rate_ref_shaped",
 ))
 O_VELOCITY_REF = OUTPUT_LAYOUT["velocity_ref"]
 O_YAW_RATE_REF = OUTPUT_LAYOUT["yaw_rate_ref"]
@@ -72,6 +83,8 @@ O_RIGHT = OUTPUT_LAYOUT["right_torque"]
 O_DT = OUTPUT_LAYOUT["dt"]
 O_PITCH_REF_LIMITED = OUTPUT_LAYOUT["pitch_ref_limited"]
 O_TORQUE_SATURATED = OUTPUT_LAYOUT["torque_saturated"]
+O_V_SHAPED = OUTPUT_LAYOUT["velocity_ref_shaped"]
+O_W_SHAPED = OUTPUT_LAYOUT["yaw_rate_ref_shaped"]
 N_OUTPUTS = len(OUTPUT_LAYOUT)
 
 
@@ -79,8 +92,10 @@ N_OUTPUTS = len(OUTPUT_LAYOUT)
 class ControlOutput:
     stamp: float
     velocity_ref: float
+    velocity_ref_shaped: float
     velocity: float
     yaw_rate_ref: float
+    yaw_rate_ref_shaped: float
     yaw_rate: float
     pitch_ref: float
     pitch: float
@@ -134,6 +149,25 @@ def cascade_reset(k):
     k[K_HAS_LAST] = 0.0
     k[K_COMMON_SAT] = 0.0
     k[K_DIFF_SAT] = 0.0
+    for i in range(K_V_SHAPED, K_W_SLOPE + 1):  # the robot is at rest after any of these: references from zero
+        k[i] = 0.0
+
+
+@kernel
+def _ramp(k, shaped, target, slope, reference, ramp_time, dt):
+    """Move k[shaped] towards `reference` in a straight line that takes `ramp_time` [s] from where it was
+    when the reference last changed (linear interpolation between a planner's commands); 0: at once."""
+    if ramp_time <= 0.0:
+        k[shaped] = reference
+        return
+    if reference != k[target]:
+        k[target] = reference
+        k[slope] = (reference - k[shaped]) / ramp_time
+    step = k[slope] * dt
+    if abs(reference - k[shaped]) <= abs(step):
+        k[shaped] = reference
+    else:
+        k[shaped] += step
 
 
 @kernel
@@ -174,20 +208,24 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     pitch_ref_limited = False
     torque_saturated = False
     if k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
+        # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
+        # commands) then moves the proportional terms, and the torques, smoothly.
+        _ramp(k, K_V_SHAPED, K_V_TARGET, K_V_SLOPE, velocity_ref, c[C_V_RAMP], dt)
+        _ramp(k, K_W_SHAPED, K_W_TARGET, K_W_SLOPE, yaw_rate_ref, c[C_W_RAMP], dt)
         velocity_pid = k[K_VELOCITY:K_PITCH]
         pitch_pid = k[K_PITCH:K_YAW_RATE]
         yaw_rate_pid = k[K_YAW_RATE:]
         # The velocity loop must not wind up while the torque it asks for through the pitch loop is
         # saturated: a positive pitch_ref asks for a negative common torque first.
         pitch_ref = c[C_PITCH_OFFSET] + pid_update(
-            c[C_VELOCITY:C_PITCH], velocity_pid, velocity_ref, velocity, dt, 0.0, False, -int(k[K_COMMON_SAT]),
+            c[C_VELOCITY:C_PITCH], velocity_pid, k[K_V_SHAPED], velocity, dt, 0.0, False, -int(k[K_COMMON_SAT]),
         )
         pitch_ref_limited = velocity_pid[M_LIMITED] != 0.0
         common = -pid_update(c[C_PITCH:C_YAW_RATE], pitch_pid, pitch_ref, pitch, dt, pitch_rate, True, 0)
         pitch_limited = pitch_pid[M_LIMITED] != 0.0
         k[K_COMMON_SAT] = _copysign_int(common) if pitch_limited else 0
         headroom = c[C_MAX_TORQUE] - abs(common)
-        requested = pid_update(c[C_YAW_RATE:], yaw_rate_pid, yaw_rate_ref, yaw_rate, dt, 0.0, False,
+        requested = pid_update(c[C_YAW_RATE:], yaw_rate_pid, k[K_W_SHAPED], yaw_rate, dt, 0.0, False,
                                int(k[K_DIFF_SAT]))
         differential = _clip(requested, headroom)
         k[K_DIFF_SAT] = _copysign_int(requested) if differential != requested else 0
@@ -202,6 +240,8 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     out[O_DT] = dt
     out[O_PITCH_REF_LIMITED] = 1.0 if pitch_ref_limited else 0.0
     out[O_TORQUE_SATURATED] = 1.0 if torque_saturated else 0.0
+    out[O_V_SHAPED] = k[K_V_SHAPED]
+    out[O_W_SHAPED] = k[K_W_SHAPED]
 
 
 class CascadeController:
@@ -269,8 +309,9 @@ class CascadeController:
         cascade_compute(self.c, self.k, o, float(stamp), float(velocity_ref), float(yaw_rate_ref), float(velocity),
                         float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale))
         return ControlOutput(
-            stamp=stamp, velocity_ref=float(o[O_VELOCITY_REF]), velocity=velocity,
-            yaw_rate_ref=float(o[O_YAW_RATE_REF]), yaw_rate=yaw_rate, pitch_ref=float(o[O_PITCH_REF]), pitch=pitch,
+            stamp=stamp, velocity_ref=float(o[O_VELOCITY_REF]), velocity_ref_shaped=float(o[O_V_SHAPED]),
+            velocity=velocity, yaw_rate_ref=float(o[O_YAW_RATE_REF]), yaw_rate_ref_shaped=float(o[O_W_SHAPED]),
+            yaw_rate=yaw_rate, pitch_ref=float(o[O_PITCH_REF]), pitch=pitch,
             pitch_rate=pitch_rate, common_torque=float(o[O_COMMON]), differential_torque=float(o[O_DIFFERENTIAL]),
             left_torque=float(o[O_LEFT]), right_torque=float(o[O_RIGHT]), dt=float(o[O_DT]),
             pitch_ref_limited=bool(o[O_PITCH_REF_LIMITED]), torque_saturated=bool(o[O_TORQUE_SATURATED]),

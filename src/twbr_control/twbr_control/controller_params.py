@@ -32,6 +32,11 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
     *tunable(ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
+    ParamSpec("reference_ramp.velocity", 0.0, "a new v_ref is reached in a straight line over this time before"
+              " the velocity loop sees it (a step then asks for less roll-back); 0: at once", "s", 0.0, 5.0),
+    ParamSpec("reference_ramp.yaw_rate", 0.0, "a new omega_ref is reached in a straight line over this time"
+              " (one period of a 20 Hz planner: its commands are interpolated, and the torque moves smoothly);"
+              " 0: at once", "s", 0.0, 5.0),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",

@@ -11,6 +11,7 @@ prints one PASS/FAIL line per check and exits 1 if any check fails (2 when nothi
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections import defaultdict
@@ -32,6 +33,7 @@ from twbr_runner.conformance import (
     SENSOR_TOPICS,
     Check,
     check_frames,
+    check_imu_kind,
     check_pitch_sign,
     check_qos,
     check_rate,
@@ -48,6 +50,7 @@ class DriverChecker(Node):
         self.stamps: dict[str, list[float]] = defaultdict(list)
         self.odom_frames: set[tuple[str, str]] = set()
         self.imu_frames: set[str] = set()
+        self.imu_kinds: set[str] = set()
         self.joint_names: set[tuple[str, ...]] = set()
         self.last_speed = 0.0
         self.last_pitch = 0.0
@@ -88,8 +91,14 @@ class DriverChecker(Node):
     def _on_imu(self, msg: Imu) -> None:
         self.stamps["imu"].append(stamp_seconds(msg.header.stamp))
         self.imu_frames.add(msg.header.frame_id)
-        o = msg.orientation
-        self.last_pitch = rpy_from_quaternion(o.x, o.y, o.z, o.w)[1]
+        raw = msg.orientation_covariance[0] == -1.0
+        self.imu_kinds.add("raw" if raw else "orientation")
+        if raw:  # no orientation: the accelerometer's gravity direction gives the pitch
+            a = msg.linear_acceleration
+            self.last_pitch = math.atan2(-a.x, a.z)
+        else:
+            o = msg.orientation
+            self.last_pitch = rpy_from_quaternion(o.x, o.y, o.z, o.w)[1]
 
     def _on_joints(self, msg: JointState) -> None:
         self.stamps["joint_states"].append(stamp_seconds(msg.header.stamp))
@@ -131,6 +140,7 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
         checks.append(check_stamps(topic, node.stamps[topic]))
         checks.append(check_rate(topic, node.stamps[topic], args.rate, args.tolerance))
     checks.append(check_frames(node.odom_frames, node.imu_frames, node.joint_names))
+    checks.append(check_imu_kind(node.imu_kinds))
     # Active: a short forward torque pulse, then zero torque again.
     effort_before = mean(node.efforts[-20:]) if node.efforts else 0.0
     v0, p0 = node.last_speed, node.last_pitch

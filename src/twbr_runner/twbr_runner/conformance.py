@@ -81,6 +81,19 @@ def check_frames(odom_frames: set[tuple[str, str]], imu_frames: set[str], joint_
                  f" {BASE_FRAME}, {', '.join(WHEEL_JOINTS)}")
 
 
+def check_imu_kind(kinds: set[str]) -> Check:
+    """Which IMU the driver has: one that reports an orientation, or a raw one (orientation_covariance[0] =
+    -1, REP 145) whose pitch the controller estimates from gyro and accelerometer (pitch_source auto)."""
+    if kinds == {"raw"}:
+        return Check("imu kind", True, "raw: angular velocity and linear acceleration only (orientation_covariance[0]"
+                     " = -1); the controller estimates pitch (pitch_source auto or estimator)")
+    if kinds == {"orientation"}:
+        return Check("imu kind", True, "orientation reported; the controller uses it (pitch_source auto or"
+                     " orientation)")
+    return Check("imu kind", False, f"mixed: {', '.join(sorted(kinds)) or 'no imu message'} (a driver's imu must be"
+                 " raw in every message or in none)")
+
+
 def check_qos(topic: str, compatible: Sequence[tuple[bool, str]]) -> Check:
     name = f"{topic} QoS"
     if not compatible:

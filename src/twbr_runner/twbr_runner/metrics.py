@@ -44,6 +44,10 @@ class RunSeries:
     x_c: np.ndarray = field(default_factory=lambda: np.empty(0))
     y_c: np.ndarray = field(default_factory=lambda: np.empty(0))
     pitch: np.ndarray = field(default_factory=lambda: np.empty(0))  # true pitch from odom [rad]
+    # The true speed and yaw rate at control_t: the simulator's ground_truth where it published one
+    # (realistic sensors), else what the controller measured (ideal sensors: the same thing).
+    velocity_true: np.ndarray = field(default_factory=lambda: np.empty(0))
+    yaw_rate_true: np.ndarray = field(default_factory=lambda: np.empty(0))
     joints_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     wheel_effort: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # delivered [N·m]
     sim_status: list[Any] = field(default_factory=list)
@@ -128,12 +132,20 @@ def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSe
     control = _admitted("/controller_state", messages.get("/controller_state", []), s.refused, clock)
     s.control_t = np.array([stamp_of(m) for m in control])
     s.control = {name: np.array([float(getattr(m, name)) for m in control]) for name in CONTROLLER_FIELDS}
-    odom = _admitted("/odom", messages.get("/odom", []), s.refused, clock)
+    # With realistic sensors odom is dead reckoning from encoder counts: the simulator's ground_truth is
+    # what the robot really did.
+    truth = _admitted("/ground_truth", messages.get("/ground_truth", []), s.refused, clock)
+    odom = truth or _admitted("/odom", messages.get("/odom", []), s.refused, clock)
     s.odom_t = np.array([stamp_of(m) for m in odom])
     s.x_c = np.array([m.pose.pose.position.x for m in odom])
     s.y_c = np.array([m.pose.pose.position.y for m in odom])
     s.pitch = np.array([rpy_from_quaternion(m.pose.pose.orientation.x, m.pose.pose.orientation.y,
                                             m.pose.pose.orientation.z, m.pose.pose.orientation.w)[1] for m in odom])
+    if truth:
+        s.velocity_true = np.interp(s.control_t, s.odom_t, [m.twist.twist.linear.x for m in truth])
+        s.yaw_rate_true = np.interp(s.control_t, s.odom_t, [m.twist.twist.angular.z for m in truth])
+    else:
+        s.velocity_true, s.yaw_rate_true = s.control["velocity"], s.control["yaw_rate"]
     joints = _admitted("/joint_states", messages.get("/joint_states", []), s.refused, clock)
     s.joints_t = np.array([stamp_of(m) for m in joints])
     s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
@@ -286,9 +298,9 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
     late = s.odom_t >= start
     steps = {}
     if step_responses:
-        for name, signal, ref in (("velocity_step", "velocity", "velocity_ref"),
-                                  ("yaw_rate_step", "yaw_rate", "yaw_rate_ref")):
-            steps[name] = step_response(s.control_t, c[signal], c[ref])
+        for name, signal, ref in (("velocity_step", s.velocity_true, "velocity_ref"),
+                                  ("yaw_rate_step", s.yaw_rate_true, "yaw_rate_ref")):
+            steps[name] = step_response(s.control_t, signal, c[ref])
     return RunMetrics(
         scenario=scenario,
         seed=seed,

@@ -47,6 +47,7 @@ RECORDED_TOPICS = {
     "/clock": "rosgraph_msgs/msg/Clock",
     "/tf": "tf2_msgs/msg/TFMessage",
     "odom": "nav_msgs/msg/Odometry",
+    "ground_truth": "nav_msgs/msg/Odometry",
     "imu": "sensor_msgs/msg/Imu",
     "joint_states": "sensor_msgs/msg/JointState",
     "wheel_torque_cmd": "twbr_msgs/msg/WheelTorques",
@@ -87,6 +88,7 @@ class RunOptions:
     figures: bool = True
     quiet: bool = False
     planner_method: str | None = None  # None: planner.yaml's
+    sensors: str = "ideal"  # or "realistic": config/sensors_realistic.yaml over sim.yaml
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -104,8 +106,11 @@ def ros_value(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
+SENSORS = ("ideal", "realistic")
+
+
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
-         planner_method: str | None = None) -> list[NodeSpec]:
+         planner_method: str | None = None, sensors: str = "ideal") -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
@@ -133,7 +138,8 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     planner_rate = node_parameters(config / "planner.yaml", "planner_node").get(
         "rate", default_of(PLANNER_NODE_SPECS, "rate")) if planner else 0.0
     nodes.append(NodeSpec("sim", "twbr_sim", "sim_node", [
-        *params_files(config, "robot.yaml", "sim.yaml"),
+        *params_files(config, "robot.yaml", "sim.yaml", *(["sensors_realistic.yaml"] if sensors == "realistic"
+                                                            else [])),
         "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
         "-p", "mode:=lockstep", "-p", f"wait_for_subscribers:={3 if planner else 2}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",
@@ -290,7 +296,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     if opts.out_root.resolve() not in run_dir.resolve().parents:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
-    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method)
+    nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method, opts.sensors)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
@@ -438,11 +444,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--wall-timeout", type=float, help="give up after this many wall seconds")
     ap.add_argument("--no-figures", action="store_true")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--sensors", choices=SENSORS, default="ideal",
+                    help="the simulator's sensors: ideal, or realistic (config/sensors_realistic.yaml: raw IMU with"
+                         " noise, bias and delay, 1024-count encoders)")
     ap.add_argument("--planner-method", choices=METHODS,
                     help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
-                      a.planner_method)
+                      a.planner_method, a.sensors)
     try:
         code, _ = run(opts)
     except ConfigError as e:

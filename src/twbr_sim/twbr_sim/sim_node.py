@@ -78,6 +78,10 @@ class SimNode(Node):
         self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
         self.pub_imu = self.create_publisher(Imu, "imu", SENSOR_PUB_QOS)
         self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
+        # Realistic sensors: odom is dead reckoning and the imu is noisy, so the true state goes out beside
+        # them for the record (metrics, figures); with ideal sensors odom is the true state.
+        self.pub_truth = (None if self.sim.ideal_sensors
+                          else self.create_publisher(Odometry, "ground_truth", SENSOR_PUB_QOS))
         self.pub_tf = self.create_publisher(TFMessage, "/tf", 100)
         self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_QOS)
         self.hosting_world = scenario is not None and cfg["host_world"]
@@ -189,6 +193,8 @@ class SimNode(Node):
                 publisher.publish(msg)
         self.pub_odom.publish(self._odom_msg)
         self.pub_imu.publish(self._imu_msg)
+        if self.pub_truth is not None and not again:
+            self.pub_truth.publish(self.truth_message())
         # A new state: its command is awaited (lockstep) and its latency measured (both).
         self.exchange.offered(now_ns, self.sim.step_count)
 
@@ -256,6 +262,20 @@ class SimNode(Node):
             )
         else:
             self.get_logger().info(f"wheel_torque_cmd arriving at t = {self.sim.time:.3f} s: torque applied")
+
+    def truth_message(self) -> Odometry:
+        s = self.sim.state
+        msg = Odometry()
+        msg.header.stamp = self._odom_msg.header.stamp
+        msg.header.frame_id = self._frame_odom
+        msg.child_frame_id = self._frame_base
+        pose = msg.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = s[dyn.S_XC], s[dyn.S_YC], float(self.sim.p[P_R])
+        q = pose.orientation
+        q.x, q.y, q.z, q.w = quaternion_from_rpy(0.0, s[dyn.S_TH], s[dyn.S_PSI])
+        twist = msg.twist.twist
+        twist.linear.x, twist.angular.y, twist.angular.z = s[dyn.S_XD], s[dyn.S_THD], s[dyn.S_PSID]
+        return msg
 
     def status_message(self, stamp) -> SimStatus:
         sim = self.sim

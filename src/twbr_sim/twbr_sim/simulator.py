@@ -153,6 +153,12 @@ class Simulator:
         twin.assess()
 
     @property
+    def ideal_sensors(self) -> bool:
+        """No sensor realism at all: the imu and odom report the true state."""
+        c = self.imu_model.c
+        return not self.imu_model.raw and not c[1:].any() and self._encoder_c[0] == 0.0
+
+    @property
     def time(self) -> float:
         return self.step_count * self.h
 

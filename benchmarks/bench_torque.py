@@ -1,0 +1,77 @@
+"""Torque smoothness: what the motors get in the paper's dynamic-obstacle run, before and after the
+controller shapes its references (reference_ramp.*), and the 0.1 m/s step's roll-back.
+
+Figures per wheel: the largest sample-to-sample change of the commanded torque [N·m] and the torque's power
+above 10 Hz [(N·m)^2, the mean square of the part of the signal above 10 Hz]. "before" is the controller with
+the reference ramps off and the gains of config/controller.yaml before issue 17 (set below); "after" is
+today's defaults with the yaw-rate reference ramped over one planner period (AFTER). Runs are the headless
+closed loop of the nodes' cores (planner included, paper's method as the scenario pins): exactly reproducible.
+
+    tools/run.sh python benchmarks/bench_torque.py
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
+from twbr_batch.response import step_response
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
+
+BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
+    "reference_ramp.velocity": 0.0, "reference_ramp.yaw_rate": 0.0,
+    "velocity.kp": 0.4529, "velocity.ki": 0.6938, "velocity.kd": 0.0, "velocity.setpoint_weight": 0.494,
+    "velocity.derivative_filter": 0.02, "pitch.kp": 42.52, "pitch.ki": 0.0, "pitch.kd": 8.793,
+    "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293,
+}
+AFTER = {"reference_ramp.yaw_rate": 0.05}  # one planner period (not yet the default: docs/nodes.md says why)
+CUTOFF_HZ = 10.0
+
+
+def high_frequency_power(signal: np.ndarray, rate: float, cutoff: float = CUTOFF_HZ) -> float:
+    """Mean square of the part of `signal` above `cutoff` [Hz] (Parseval on the FFT)."""
+    spectrum = np.fft.rfft(signal - signal.mean())
+    freqs = np.fft.rfftfreq(len(signal), 1.0 / rate)
+    power = np.abs(spectrum) ** 2
+    power[1:-1] *= 2.0  # one-sided
+    return float(power[freqs > cutoff].sum() / len(signal) ** 2)
+
+
+def torque_figures(control: dict) -> dict:
+    sc = load_scenario(find_scenario("dynamic_obstacles"))
+    trace = run_closed_loop(sc.duration, planner_reference(), control, scenario=sc, seed=sc.seed,
+                            stop=lambda sim: sim.assess().target_reached)
+    rate = 1.0 / float(np.median(np.diff(trace.t)))
+    out = {"sim_time_s": float(trace.t[-1])}
+    for wheel in ("left", "right"):
+        torque = trace[f"{wheel}_torque"]
+        out[f"{wheel}_max_step_nm"] = float(np.abs(np.diff(torque)).max())
+        out[f"{wheel}_power_above_10hz"] = high_frequency_power(torque, rate)
+    step = load_scenario(find_scenario("step"))
+    s = run_closed_loop(step.duration, scenario_reference(step), control, scenario=step)
+    r = step_response(s.t, s.velocity_true, s["velocity_ref"])
+    out.update(step_rollback_pct=100.0 * r.undershoot / abs(r.final - r.initial), step_settle_s=r.settle_time_s,
+               step_overshoot_pct=r.overshoot_pct)
+    return out
+
+
+def main() -> int:
+    rows = {"before": torque_figures(BEFORE), "after": torque_figures(AFTER)}
+    print(f"{'':8} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'step roll-back %':>17}"
+          f" {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
+    for name, r in rows.items():
+        print(f"{name:8} {r['left_max_step_nm']:8.4f}/{r['right_max_step_nm']:.4f} "
+              f"{r['left_power_above_10hz']:12.3e}/{r['right_power_above_10hz']:.3e} {r['step_rollback_pct']:17.1f}"
+              f" {r['step_settle_s']:9.3f} {r['step_overshoot_pct']:12.2f} {r['sim_time_s']:6.2f}")
+    out = Path(__file__).parent / "results" / "bench_torque.json"
+    out.write_text(json.dumps(rows, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
