@@ -11,7 +11,7 @@ from twbr_batch import montecarlo as mc
 from twbr_common.params import ConfigError
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
-from twbr_sim.scenario_files import find_scenario, scenario_names
+from twbr_sim.scenario_files import find_scenario, scenario_names, sensor_preset
 
 # (trace column, Trace field): what both record at every control sample.
 COMPARED = (("t", "stamp"), ("pitch", "pitch"), ("velocity", "velocity"), ("left_torque", "left_torque"),
@@ -90,3 +90,29 @@ def test_mismatched_inputs_are_refused():
         batch.run_batch(scenario, [1, 2], robot_params()[None, :])
     with pytest.raises(ConfigError, match="rate"):
         batch.run_batch(scenario, [1], robot_params()[None, :], control={"rate": -5.0})
+
+
+@pytest.mark.parametrize(("name", "controller"), [("step", "pid"), ("dynamic_obstacles", "pid"),
+                                                  ("dynamic_target", "lqr")])
+def test_realistic_sensors_and_either_controller_run_the_same_in_the_batch(name, controller):
+    """The noisy IMU, the encoders, the estimator and the traction tally are one compiled implementation too:
+    robot i draws the noise of seed i, whatever thread runs it, as the simulator with that seed does."""
+    path = find_scenario(name)
+    seeds = [1, 2]
+    params = np.stack([robot_params(mc.perturbed_robot(mc.perturbation_factors(seed, 0.2))) for seed in seeds])
+    result = batch.run_batch(load_scenario(path), seeds, params, control={"controller": controller},
+                             sim=sensor_preset("realistic"), record=True)
+    for i, seed in enumerate(seeds):
+        row, trace = mc.run_one_traced(str(path), seed, 0.2, sensors="realistic", controller=controller)
+        got = result.trace(i)
+        assert len(got["t"]) == len(trace.t), f"{name} seed {seed}: run lengths differ"
+        for column, field in COMPARED:
+            np.testing.assert_allclose(got[column], trace[field], **TOL, err_msg=f"{name} seed {seed} {column}")
+        np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
+        assert np.all(trace["pitch_estimated"])  # the controller really estimated: a raw IMU
+        z = result.table[i]
+        assert z[batch.Z_PITCH_ERROR_SQUARES] == pytest.approx(np.sum((trace["pitch"] - trace.pitch_true) ** 2),
+                                                               rel=1e-9)
+        assert z[batch.Z_PITCH_ERROR_SQUARES] > 0.0  # the noise reached the controller
+        assert (z[batch.Z_LIFT_EVENTS], z[batch.Z_SLIP_EVENTS]) == (trace.traction.lift_events,
+                                                                   trace.traction.slip_events)

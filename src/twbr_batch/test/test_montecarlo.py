@@ -80,10 +80,10 @@ def test_an_unknown_scenario_is_refused_naming_the_known_ones(tmp_path, capsys):
 def test_an_interrupted_study_keeps_the_finished_rows(course, tmp_path, monkeypatch, capsys):
     real = mc.run_chunk
 
-    def run_chunk(path, seeds, perturbation):
+    def run_chunk(path, seeds, *args):
         if 3 in seeds:
             raise KeyboardInterrupt  # Ctrl-C during the second batch
-        return real(path, seeds, perturbation)
+        return real(path, seeds, *args)
 
     monkeypatch.setattr(mc, "run_chunk", run_chunk)
     assert mc.main([str(course), "-n", "5", "--chunk", "2", "--out", str(tmp_path / "out")]) == mc.EXIT_INTERRUPTED

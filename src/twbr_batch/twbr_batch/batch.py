@@ -24,13 +24,16 @@ import numpy as np
 
 from twbr_common.jit import kernel, parallel_kernel
 from twbr_common.layout import Layout
-from twbr_common.params import ConfigError, default_of
+from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
 from twbr_control.cascade import settings_vector as control_vector
 from twbr_control.controller_params import resolve as resolve_controller
+from twbr_control.estimator import E_CALIBRATING, E_PITCH, E_PITCH_RATE, E_VELOCITY_ESTIMATE, estimator_update, uses_estimator
+from twbr_control.estimator import N_MEMORY as N_ESTIMATOR_MEMORY
+from twbr_control.estimator import settings_vector as estimator_vector
 from twbr_planner.apf import (
     A_RHO_O,
     PROGRESS_COLUMNS,
@@ -47,10 +50,33 @@ from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner import plan_step
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
-from twbr_sim.dynamics import N_STATE, S_PSI, S_PSID, S_TH, S_THD, S_XC, S_XD, S_YC, WORK_ROWS, advance_upright, initial_state
+from twbr_sim.dynamics import (
+    N_STATE,
+    S_PSI,
+    S_PSID,
+    S_TH,
+    S_THD,
+    S_XC,
+    S_XD,
+    S_YC,
+    WORK_ROWS,
+    advance_upright,
+    derivatives,
+    initial_state,
+)
+from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
+from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
+from twbr_sim.encoders import new_memory as new_encoder_memory
+from twbr_sim.encoders import settings_vector as encoder_vector
+from twbr_sim.imu import IMU_STREAM, N_READING, R_ACCEL, R_GYRO, R_PITCH, imu_init, imu_sample
+from twbr_sim.imu import new_memory as new_imu_memory
+from twbr_sim.imu import settings_vector as imu_vector
+from twbr_sim.noise import new_generator
 from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
-from twbr_sim.simulator import SIM_SPECS, steps_per_publish
+from twbr_sim.simulator import SENSOR_SPECS, SIM_SPECS, steps_per_publish
+from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
+from twbr_sim.traction import traction_flags, wheel_loads
 from twbr_sim.world import (
     N_SEGMENT,
     N_TALLY,
@@ -78,7 +104,7 @@ PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 # radius [m], and the rows of the planner's progress ring.
 RUN_LAYOUT = Layout((
     "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
-    "target_speed", "turn_interval", "capture_radius", "ring_rows",
+    "target_speed", "turn_interval", "capture_radius", "ring_rows", "sensors", "estimate", "friction",
 ))
 U_H = RUN_LAYOUT["h"]
 U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
@@ -91,6 +117,9 @@ U_TARGET_SPEED = RUN_LAYOUT["target_speed"]
 U_TURN_INTERVAL = RUN_LAYOUT["turn_interval"]
 U_CAPTURE_RADIUS = RUN_LAYOUT["capture_radius"]
 U_RING_ROWS = RUN_LAYOUT["ring_rows"]
+U_SENSORS = RUN_LAYOUT["sensors"]  # the sensors are not ideal: read them through their kernels
+U_ESTIMATE = RUN_LAYOUT["estimate"]  # pitch (and speed) from the controller's estimator
+U_FRICTION = RUN_LAYOUT["friction"]  # traction.friction: lift-off and slip are counted; 0: not counted
 # Per-robot result columns.
 # The first collision's obstacle (-1: none) and where the robot was when that obstacle last came into the
 # detection range (t [s], x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), for the avoidability check;
@@ -99,7 +128,7 @@ U_RING_ROWS = RUN_LAYOUT["ring_rows"]
 RESULT_LAYOUT = Layout((
     "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
     "samples", "physics_steps", "hit_obstacle", ("detected", 6), "pitch_abs_max_settled", "final_distance",
-    "stuck_at_end",
+    "stuck_at_end", "lift_events", "slip_events", "lifted_time", "slipping_time", "pitch_error_square_sum",
 ))
 Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
 Z_COLLISIONS = RESULT_LAYOUT["collisions"]
@@ -116,6 +145,11 @@ Z_DETECTED = RESULT_LAYOUT["detected"]  # t, x, y, yaw, speed, yaw rate
 Z_PITCH_SETTLED = RESULT_LAYOUT["pitch_abs_max_settled"]
 Z_FINAL_DISTANCE = RESULT_LAYOUT["final_distance"]
 Z_STUCK_AT_END = RESULT_LAYOUT["stuck_at_end"]
+Z_LIFT_EVENTS = RESULT_LAYOUT["lift_events"]
+Z_SLIP_EVENTS = RESULT_LAYOUT["slip_events"]
+Z_LIFTED_TIME = RESULT_LAYOUT["lifted_time"]  # [s]
+Z_SLIPPING_TIME = RESULT_LAYOUT["slipping_time"]  # [s]
+Z_PITCH_ERROR_SQUARES = RESULT_LAYOUT["pitch_error_square_sum"]  # sum over samples of (pitch used - true)^2
 N_RESULT = len(RESULT_LAYOUT)
 SETTLING_TIME = 2.0  # [s] the start's transient, left out of pitch_abs_max_settled
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
@@ -138,13 +172,15 @@ N_TRACE = len(TRACE_LAYOUT)
 
 @kernel
 def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velocity, radii, profile, result,
-              trace):
+              trace, imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q):
     """One robot's whole run, as run_closed_loop with the planner or the command profile as reference.
 
     p: robot parameters (robot_params.ROBOT_LAYOUT), state (dynamics.STATE_LAYOUT), c: controller settings
     (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; the target's
     segment and yaw-rate draws, the obstacles' start [m], velocity [m/s] and radii [m], the command
-    profile (three rows: t [s], v [m/s], omega [rad/s]); result: RESULT_LAYOUT; trace: rows of TRACE_LAYOUT.
+    profile (three rows: t [s], v [m/s], omega [rad/s]); result: RESULT_LAYOUT; trace: rows of TRACE_LAYOUT;
+    the sensors' settings and this robot's memories and generator (imu, encoders) and the estimator's settings,
+    used when run[U_SENSORS] is set (ideal sensors read the state directly, as before).
     """
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
@@ -181,6 +217,25 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     torque_limit = wheel_torque_limit(p)
     robot_radius = p[P_ROBOT_RADIUS]
     record = trace.shape[0] > 0
+    sensors = run[U_SENSORS] != 0.0
+    estimate = run[U_ESTIMATE] != 0.0
+    friction = run[U_FRICTION]
+    derivative = np.zeros(N_STATE)
+    reading = np.zeros(N_READING)
+    odometry = np.zeros(N_ENCODER_OUTPUTS)
+    loads = np.zeros(N_TRACTION_OUTPUTS)
+    estimator_m = np.zeros(N_ESTIMATOR_MEMORY)
+    if sensors:
+        imu_init(imu_c, imu_m, generator)
+    left = 0.0
+    right = 0.0
+    lifted = False
+    slipping = False
+    lift_events = 0
+    slip_events = 0
+    lifted_samples = 0
+    slipping_samples = 0
+    pitch_error_squares = 0.0
 
     step_count = 0
     fallen = False
@@ -197,10 +252,44 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     k = 0
     for k in range(n_samples):
         t = step_count * h
-        x = state[S_XC]
+        x = state[S_XC]  # the truth, for the world's assessment
         y = state[S_YC]
         pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
         pitch_rate = state[S_THD]
+        odom_x = x  # what odom says, for the planner and the velocity loop
+        odom_y = y
+        odom_yaw = state[S_PSI]
+        odom_velocity = state[S_XD]
+        yaw_rate = state[S_PSID]
+        if sensors or friction > 0.0:
+            derivatives(p, state, left, right, derivative)  # under the command applied now
+        if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
+            imu_sample(p, imu_c, imu_m, generator, state, derivative, reading)
+            encoder_sample(p, encoder_c, encoder_m, state, odometry)
+            odom_x = odometry[J_X]
+            odom_y = odometry[J_Y]
+            odom_yaw = odometry[J_YAW]
+            odom_velocity = odometry[J_VELOCITY]
+            yaw_rate = odometry[J_YAW_RATE]
+            pitch = reading[R_PITCH]
+            pitch_rate = reading[R_GYRO + 1]
+            if estimate:
+                estimator_update(estimator_q, estimator_m, t, pitch_rate, reading[R_ACCEL], reading[R_ACCEL + 2],
+                                 odom_velocity)
+                pitch = estimator_m[E_PITCH]
+                pitch_rate = estimator_m[E_PITCH_RATE]
+        if friction > 0.0:
+            wheel_loads(p, state, derivative, loads)
+            now_lifted, now_slipping = traction_flags(loads, friction)
+            lift_events += 1 if now_lifted and not lifted else 0
+            slip_events += 1 if now_slipping and not slipping else 0
+            lifted_samples += 1 if now_lifted else 0
+            slipping_samples += 1 if now_slipping else 0
+            lifted = now_lifted
+            slipping = now_slipping
+        pitch_error_squares += (pitch - state[S_TH]) ** 2
+        # the velocity loop's speed: odom's, or the estimator's fused one
+        velocity = estimator_m[E_VELOCITY_ESTIMATE] if estimate else odom_velocity
         if is_due(t, world_next):  # the world's assessment, at the world rate
             world_next = next_due(t, world_next, world_period)
             obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
@@ -222,7 +311,7 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                 plan_next = next_due(t, plan_next, planner_period)
                 tx, ty, _heading, tvx, tvy = target_at(segment, target_speed, t)
                 obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
-                plan_step(a, memory, ring, plan_out, t, x, y, state[S_PSI], state[S_XD], tx, ty, tvx, tvy,
+                plan_step(a, memory, ring, plan_out, t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx, tvy,
                           positions, obstacle_velocity, radii, distances)
                 v_ref = plan_out[Q_V]
                 w_ref = plan_out[Q_OMEGA]
@@ -242,19 +331,20 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                     detected[j] = inside
         else:
             v_ref, w_ref = command_profile_at(cmd_times, cmd_speeds, cmd_yaw_rates, t)
-        cascade_compute(c, control, control_out, t, v_ref, w_ref, state[S_XD], state[S_PSID], pitch, pitch_rate,
-                        False)
-        pitch_min = min(pitch_min, pitch)
-        pitch_max = max(pitch_max, pitch)
+        hold = estimate and estimator_m[E_CALIBRATING] != 0.0
+        cascade_compute(c, control, control_out, t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate, False, hold)
+        true_pitch = state[S_TH]
+        pitch_min = min(pitch_min, true_pitch)
+        pitch_max = max(pitch_max, true_pitch)
         if t >= SETTLING_TIME:
-            pitch_settled = max(pitch_settled, abs(pitch))
+            pitch_settled = max(pitch_settled, abs(true_pitch))
         if record:
             row = trace[k]
             row[T_T] = t
             row[T_X_C] = x
             row[T_Y_C] = y
-            row[T_PITCH] = pitch
-            row[T_VELOCITY] = state[S_XD]
+            row[T_PITCH] = pitch  # what the controller used
+            row[T_VELOCITY] = velocity
             row[T_YAW] = state[S_PSI]
             row[T_LEFT_TORQUE] = control_out[O_LEFT]
             row[T_RIGHT_TORQUE] = control_out[O_RIGHT]
@@ -283,16 +373,22 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     result[Z_PITCH_SETTLED] = pitch_settled
     result[Z_FINAL_DISTANCE] = final_distance
     result[Z_STUCK_AT_END] = 1.0 if stuck_at_end else 0.0
+    result[Z_LIFT_EVENTS] = lift_events
+    result[Z_SLIP_EVENTS] = slip_events
+    result[Z_LIFTED_TIME] = lifted_samples * steps_per_control * h
+    result[Z_SLIPPING_TIME] = slipping_samples * steps_per_control * h
+    result[Z_PITCH_ERROR_SQUARES] = pitch_error_squares
 
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
-                results, traces):
+                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q):
     record = traces.shape[0] > 0
     for i in numba.prange(params.shape[0]):
         trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
         run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
-                  radii, profile, results[i], trace)
+                  radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
+                  estimator_q)
 
 
 @dataclass
@@ -327,10 +423,12 @@ def run_batch(
     world_rate: float = WORLD_RATE,
     duration: float | None = None,
     record: bool = False,
+    sim: Mapping[str, Any] | None = None,
 ) -> BatchResult:
     """Run len(seeds) robots of `scenario`; robot i has the parameter vector params[i] (robot_params) and
-    the world of seeds[i]. Settings default to the parameter tables (the planner's under what the scenario
-    pins); `duration` to the scenario's."""
+    the world (and sensor noise) of seeds[i]. Settings default to the parameter tables (the planner's under
+    what the scenario pins; `sim`: the simulator's sensor and traction parameters, imu.*, encoder.*,
+    traction.*); `duration` to the scenario's."""
     n = len(seeds)
     params = np.ascontiguousarray(params, dtype=float)
     if n < 1 or params.shape[0] != n:
@@ -368,10 +466,24 @@ def run_batch(
         "end_on_target": sc.end_on_target, "target_speed": tgt.speed if tgt else 0.0,
         "turn_interval": tgt.turn_interval if tgt else 1.0, "capture_radius": tgt.capture_radius if tgt else 0.0,
         "ring_rows": progress_capacity(planner_cfg["stuck_time"], planner_rate),
+        "sensors": 0.0, "estimate": 0.0, "friction": 0.0,
     })
+    sim_cfg = validate_all(SENSOR_SPECS, {**defaults(SENSOR_SPECS), **(sim or {})})
+    imu_c = imu_vector(sim_cfg, rate)
+    encoder_c = encoder_vector(sim_cfg, rate)
+    raw = bool(sim_cfg["imu.raw"])
+    ideal = not raw and not imu_c[1:].any() and encoder_c[0] == 0.0
+    estimate = uses_estimator(control_cfg["pitch_source"], raw)
+    imu_m = np.tile(new_imu_memory(imu_c), (n, 1))
+    encoder_m = np.tile(new_encoder_memory(encoder_c), (n, 1))
+    generators = np.stack([new_generator(seed, IMU_STREAM) for seed in seeds])
+    run[U_SENSORS] = 0.0 if ideal and not estimate else 1.0
+    run[U_ESTIMATE] = 1.0 if estimate else 0.0
+    run[U_FRICTION] = sim_cfg["traction.friction"]
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
     with numba.parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
-                    obstacle_start, obstacle_velocity, radii, profile, results, traces)
+                    obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
+                    encoder_c, encoder_m, estimator_vector(control_cfg))
     return BatchResult(results, traces if record else None, physics_rate)

@@ -19,7 +19,7 @@ from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import resolve as resolve_controller
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_sim import dynamics as dyn
-from twbr_sim.encoders import J_VELOCITY, J_YAW_RATE
+from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
 from twbr_sim.simulator import SIM_SPECS, Simulator, TractionTally
@@ -41,6 +41,7 @@ class Trace:
     fallen: bool
     pitch_true: np.ndarray  # the body's pitch [rad] (outputs["pitch"] is what the controller used)
     velocity_true: np.ndarray  # the axle's forward speed [m/s]
+    yaw_rate_true: np.ndarray  # [rad/s]
     traction: TractionTally
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -74,7 +75,7 @@ def run_closed_loop(
     estimate = uses_estimator(control_cfg["pitch_source"], simulator.imu_model.raw)
     n = round(duration * control_cfg["rate"]) + 1
     rows: list[ControlOutput] = []
-    path = np.empty((n, 6))
+    path = np.empty((n, 7))
     for k in range(n):
         t = simulator.time
         s = simulator.state
@@ -85,15 +86,17 @@ def run_closed_loop(
         if estimate:
             pitch, pitch_rate = estimator.update(t, pitch_rate, reading.linear_acceleration[0],
                                                  reading.linear_acceleration[2], velocity)
+            velocity = estimator.velocity
         v_ref, w_ref = reference(t, simulator)
-        out = controller.compute(t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate)
+        out = controller.compute(t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
+                                 hold=estimate and estimator.calibrating)
         if estimate:
             out = replace(out, pitch_estimated=True, gyro_bias=estimator.bias,
                           accelerometer_pitch=estimator.accelerometer_pitch)
         rows.append(out)
         path[k, :2] = s[dyn.S_XC], s[dyn.S_YC]
         path[k, 2:4] = simulator.wheel_torques()
-        path[k, 4:] = s[dyn.S_TH], s[dyn.S_XD]
+        path[k, 4:] = s[dyn.S_TH], s[dyn.S_XD], s[dyn.S_PSID]
         if k == n - 1 or (stop_on_fall and simulator.fallen) or (stop is not None and stop(simulator)):
             path = path[: k + 1]
             break
@@ -102,7 +105,7 @@ def run_closed_loop(
     names = [f.name for f in fields(ControlOutput)]
     outputs = {name: np.array([getattr(r, name) for r in rows], dtype=float) for name in names}
     return Trace(outputs["stamp"], outputs, path[:, 0], path[:, 1], path[:, 2], path[:, 3], simulator.fallen,
-                 path[:, 4], path[:, 5], simulator.traction)
+                 path[:, 4], path[:, 5], path[:, 6], simulator.traction)
 
 
 def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
@@ -126,13 +129,13 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
         core = held["core"]
         if not due.due(t):
             return held["cmd"]
-        s = sim.state
+        odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
         world = sim.world
         state = world.target() if world is not None else None
         target = Target(state.x, state.y, *state.velocity) if state is not None else None
         obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in world.obstacles()]) if world
                      else Obstacles.empty())
-        out = core.step(t, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_XD], target, obstacles)
+        out = core.step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
         if log is not None:
             log.append(out)
         held["cmd"] = (out.velocity_cmd, out.yaw_rate_cmd)

@@ -40,19 +40,22 @@ from twbr_batch.batch import (
     WORLD_RATE,
     Z_COLLISIONS,
     Z_FALLEN,
+    Z_LIFT_EVENTS,
     Z_MIN_CLEARANCE,
     Z_PITCH_MAX,
     Z_PITCH_MIN,
     Z_REACHED_AT,
     Z_SIM_TIME,
+    Z_SLIP_EVENTS,
     Z_STUCK_STEPS,
     run_batch,
 )
 from twbr_common.params import ConfigError, defaults
 from twbr_common.timing import Decimator
+from twbr_control.cascade import CONTROLLERS
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import load_scenario
-from twbr_sim.scenario_files import find_scenario
+from twbr_sim.scenario_files import SENSOR_PRESETS, find_scenario, sensor_preset
 
 PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "body_inertia_roll",
              "body_inertia_pitch", "body_inertia_yaw", "motor_constant")
@@ -68,8 +71,14 @@ class Study:
     runs: int
     perturbation: float = 0.0
     first_seed: int = 1
+    sensors: str = "ideal"  # or "realistic" (config/sensors_realistic.yaml)
+    controller: str = "pid"  # or "lqr"
 
     def __post_init__(self) -> None:
+        if self.sensors not in SENSOR_PRESETS:
+            raise ConfigError(f"invalid sensors {self.sensors!r}: must be one of {', '.join(SENSOR_PRESETS)}")
+        if self.controller not in CONTROLLERS:
+            raise ConfigError(f"invalid controller {self.controller!r}: must be one of {', '.join(CONTROLLERS)}")
         if self.runs < 1:
             raise ConfigError(f"invalid number of runs {self.runs}: must be at least 1")
         if not 0.0 <= self.perturbation < 1.0:
@@ -97,6 +106,8 @@ class StudyRow:
     fallen: bool
     stuck_time_s: float  # sim time the planner reported a local minimum
     sim_time_s: float  # when the run ended
+    wheel_lift_events: int  # times a wheel began to lift (traction)
+    wheel_slip_events: int  # times a wheel began to slip
     factors: dict[str, float]  # PERTURBED parameter -> factor on its nominal value
 
     @property
@@ -138,31 +149,36 @@ def perturbed_robot(factors: dict[str, float]) -> dict[str, float]:
     return {name: nominal[name] * factors[name] for name in PERTURBED}
 
 
-def run_chunk(scenario_path: str, seeds: list[int], perturbation: float) -> list[StudyRow]:
+def run_chunk(scenario_path: str, seeds: list[int], perturbation: float, sensors: str = "ideal",
+              controller: str = "pid") -> list[StudyRow]:
     """Runs of the scenario for `seeds` through the batch engine: CSV rows, by seed."""
     scenario = load_scenario(Path(scenario_path))
     factors = [perturbation_factors(seed, perturbation) for seed in seeds]
     params = np.stack([robot_params(perturbed_robot(f)) for f in factors])
-    table = run_batch(scenario, seeds, params, planner_rate=PLANNER_RATE, world_rate=WORLD_RATE).table
+    table = run_batch(scenario, seeds, params, control={"controller": controller}, planner_rate=PLANNER_RATE,
+                      world_rate=WORLD_RATE, sim=sensor_preset(sensors)).table
     return [
         StudyRow(
             seed=seed, perturbation=perturbation, reached=not math.isnan(z[Z_REACHED_AT]),
             time_to_reach_s=finite_or_none(z[Z_REACHED_AT]), collisions=int(z[Z_COLLISIONS]),
             min_clearance_m=finite_or_none(z[Z_MIN_CLEARANCE]), pitch_min_rad=float(z[Z_PITCH_MIN]),
             pitch_max_rad=float(z[Z_PITCH_MAX]), fallen=bool(z[Z_FALLEN]),
-            stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, sim_time_s=float(z[Z_SIM_TIME]), factors=run_factors,
+            stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, sim_time_s=float(z[Z_SIM_TIME]),
+            wheel_lift_events=int(z[Z_LIFT_EVENTS]), wheel_slip_events=int(z[Z_SLIP_EVENTS]), factors=run_factors,
         )
         for seed, run_factors, z in zip(seeds, factors, table, strict=True)
     ]
 
 
-def run_one(scenario_path: str, seed: int, perturbation: float) -> StudyRow:
+def run_one(scenario_path: str, seed: int, perturbation: float, sensors: str = "ideal",
+            controller: str = "pid") -> StudyRow:
     """One run of the scenario on the scalar cores (the nodes' classes): a CSV row."""
-    return run_one_traced(scenario_path, seed, perturbation)[0]
+    return run_one_traced(scenario_path, seed, perturbation, sensors=sensors, controller=controller)[0]
 
 
 def run_one_traced(scenario_path: str, seed: int, perturbation: float,
-                   planner: Mapping[str, Any] | None = None) -> tuple[StudyRow, Any]:
+                   planner: Mapping[str, Any] | None = None, sensors: str = "ideal",
+                   controller: str = "pid") -> tuple[StudyRow, Any]:
     """run_one, and the run's closed_loop.Trace; `planner`: planner parameters other than the defaults."""
     from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode
@@ -188,15 +204,17 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float,
     def ended(_sim) -> bool:
         return scenario.end_on_target and world["reached_at"] is not None
 
-    trace = run_closed_loop(scenario.duration, reference, robot=robot, scenario=scenario, seed=seed, stop=ended)
+    trace = run_closed_loop(scenario.duration, reference, {"controller": controller}, robot=robot,
+                            sim=sensor_preset(sensors), scenario=scenario, seed=seed, stop=ended)
     stuck = sum(1 for out in planner_log if out.mode is Mode.STUCK) / PLANNER_RATE
-    pitch = trace["pitch"]
+    pitch = trace.pitch_true
     row = StudyRow(
         seed=seed, perturbation=perturbation, reached=world["reached_at"] is not None,
         time_to_reach_s=world["reached_at"], collisions=world["collisions"],
         min_clearance_m=finite_or_none(world["min_clearance"]), pitch_min_rad=float(pitch.min()),
         pitch_max_rad=float(pitch.max()), fallen=bool(trace.fallen), stuck_time_s=stuck,
-        sim_time_s=float(trace.t[-1]), factors=factors,
+        sim_time_s=float(trace.t[-1]), wheel_lift_events=trace.traction.lift_events,
+        wheel_slip_events=trace.traction.slip_events, factors=factors,
     )
     return row, trace
 
@@ -239,7 +257,7 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
     path = str(study.scenario)
     if workers == 1:
         for seed in study.seeds:
-            yield run_one(path, seed, study.perturbation)
+            yield run_one(path, seed, study.perturbation, study.sensors, study.controller)
         return
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_interrupts)
     pending: set[Future] = set()
@@ -250,7 +268,7 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
                 seed = next(seeds, None)
                 if seed is None:
                     break
-                pending.add(pool.submit(run_one, path, seed, study.perturbation))
+                pending.add(pool.submit(run_one, path, seed, study.perturbation, study.sensors, study.controller))
             if not pending:
                 return
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -263,7 +281,7 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
 def _batch_rows(study: Study, chunk: int) -> Iterator[StudyRow]:
     """Rows chunk by chunk through the batch engine in this process (its threads use every core)."""
     for seeds in _chunks(study, chunk):
-        yield from run_chunk(str(study.scenario), seeds, study.perturbation)
+        yield from run_chunk(str(study.scenario), seeds, study.perturbation, study.sensors, study.controller)
 
 
 def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[StudyRow]:
@@ -275,7 +293,8 @@ def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[StudyRow]:
     except (OSError, ValueError, TypeError) as e:
         raise ConfigError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from None
     try:
-        futures = [client.submit(run_chunk, str(study.scenario), seeds, study.perturbation, pure=False)
+        futures = [client.submit(run_chunk, str(study.scenario), seeds, study.perturbation, study.sensors,
+                                 study.controller, pure=False)
                    for seeds in _chunks(study, chunk)]
         try:
             for future in as_completed(futures, loop=client.loop):
@@ -359,11 +378,15 @@ def summarise(rows: list[StudyRow], study: Study, wall_s: float, engine: str) ->
         "runs_asked": study.runs,
         "first_seed": study.first_seed,
         "perturbation": study.perturbation,
+        "sensors": study.sensors,
+        "controller": study.controller,
         "success_rate": sum(r.succeeded for r in rows) / n if n else None,
         "reached": sum(r.reached for r in rows),
         "collided": sum(bool(r.collisions) for r in rows),
         "fallen": sum(r.fallen for r in rows),
         "stuck": sum(r.stuck_time_s > 0 for r in rows),
+        "wheel_lifted": sum(r.wheel_lift_events > 0 for r in rows),
+        "wheel_slipped": sum(r.wheel_slip_events > 0 for r in rows),
         "time_to_reach_s": stats(r.time_to_reach_s for r in rows),
         "min_clearance_m": stats(r.min_clearance_m for r in rows),
         "pitch_abs_max_rad": stats(max(abs(r.pitch_min_rad), abs(r.pitch_max_rad)) for r in rows),
@@ -410,6 +433,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--perturb", type=float, default=0.0,
                     help="perturb masses, inertias and the motor constant by up to this fraction (0.2: ±20 %%)")
     ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--sensors", choices=SENSOR_PRESETS, default="ideal",
+                    help="the robot's sensors: ideal (default), or realistic (config/sensors_realistic.yaml: raw IMU"
+                         " with noise, bias and delay, 1024-count encoders; the controller estimates pitch)")
+    ap.add_argument("--controller", choices=CONTROLLERS, default="pid", help="control law (default pid)")
     ap.add_argument("--engine", choices=ENGINES, default="batch",
                     help="batch: the batch engine, threads on every core (default); scalar: the nodes' core classes,"
                          " one process per core (a cross-check, about 100 times slower)")
@@ -423,7 +450,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-figure", action="store_true")
     opts = ap.parse_args(argv)
     try:
-        study = Study(find_scenario(opts.scenario), opts.runs, opts.perturb, opts.first_seed)
+        study = Study(find_scenario(opts.scenario), opts.runs, opts.perturb, opts.first_seed, opts.sensors,
+                      opts.controller)
         if opts.workers < 1:
             raise ConfigError(f"invalid --workers {opts.workers}: must be at least 1")
         if opts.chunk < 1:
@@ -442,7 +470,8 @@ def main(argv: list[str] | None = None) -> int:
              f"the batch engine ({os.cpu_count()} cores, {opts.chunk} robots per batch)")
     out_dir = opts.out / f"{study.scenario.stem}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
     print(f"montecarlo: {study.runs} runs of {study.scenario.stem} (seeds {study.seeds.start}.."
-          f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}) on {where} -> {out_dir}",
+          f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}, {study.sensors} sensors,"
+          f" {study.controller}) on {where} -> {out_dir}",
           flush=True)
     started = time.monotonic()
     signal.signal(signal.SIGTERM, _interrupt)

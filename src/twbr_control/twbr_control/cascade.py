@@ -30,7 +30,8 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 # gains (pid.GAINS_LAYOUT each).
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
-    "max_sample_gap", "reference_ramp.velocity", "reference_ramp.yaw_rate", ("velocity", N_GAINS),
+    "max_sample_gap", "reference_ramp.velocity", "reference_ramp.yaw_rate", "velocity.measurement_filter",
+    "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
 C_PERIOD = SETTINGS_LAYOUT["period"]
@@ -42,6 +43,12 @@ C_FALL_PITCH = SETTINGS_LAYOUT["fall_pitch"]
 C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
 C_V_RAMP = SETTINGS_LAYOUT["reference_ramp.velocity"]
 C_W_RAMP = SETTINGS_LAYOUT["reference_ramp.yaw_rate"]
+C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
+C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
+C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
+C_LQR = SETTINGS_LAYOUT["lqr"]  # lqr.GAIN_NAMES
+C_LQR_WEIGHT = SETTINGS_LAYOUT["lqr.setpoint_weight"]
+CONTROLLERS = ("pid", "lqr")
 C_VELOCITY = SETTINGS_LAYOUT["velocity"]
 C_PITCH = SETTINGS_LAYOUT["pitch"]
 C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
@@ -50,7 +57,9 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
     "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_ref_target", "yaw_rate_ref_target", "velocity_ref_slope",
-    "yaw_rate_ref_slope", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+    "yaw_rate_ref_slope", "velocity_filtered", "yaw_rate_filtered", "filters_ready", "lqr_position", "lqr_heading",
+    ("velocity", N_MEMORY),
+    ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
@@ -64,6 +73,11 @@ K_V_TARGET = MEMORY_LAYOUT["velocity_ref_target"]
 K_W_TARGET = MEMORY_LAYOUT["yaw_rate_ref_target"]
 K_V_SLOPE = MEMORY_LAYOUT["velocity_ref_slope"]
 K_W_SLOPE = MEMORY_LAYOUT["yaw_rate_ref_slope"]
+K_V_FILTERED = MEMORY_LAYOUT["velocity_filtered"]
+K_W_FILTERED = MEMORY_LAYOUT["yaw_rate_filtered"]
+K_FILTERS_READY = MEMORY_LAYOUT["filters_ready"]
+K_LQR_POSITION = MEMORY_LAYOUT["lqr_position"]  # integral of the speed error [m]
+K_LQR_HEADING = MEMORY_LAYOUT["lqr_heading"]  # integral of the yaw-rate error [rad]
 K_VELOCITY = MEMORY_LAYOUT["velocity"]
 K_PITCH = MEMORY_LAYOUT["pitch"]
 K_YAW_RATE = MEMORY_LAYOUT["yaw_rate"]
@@ -113,6 +127,7 @@ class ControlOutput:
     pitch_estimated: bool = False  # pitch and pitch_rate came from the estimator (raw IMU)
     gyro_bias: float = 0.0  # the estimator's gyro bias about y [rad/s]
     accelerometer_pitch: float = 0.0  # the accelerometer's pitch, forward acceleration taken off [rad]
+    calibrating: bool = False  # the estimator was calibrating: zero torque
 
 
 @kernel
@@ -128,7 +143,7 @@ def _copysign_int(value):
 def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
     """The controller's validated parameters (controller_params) in the kernel's layout."""
     s = settings
-    c = SETTINGS_LAYOUT.pack({**s, "period": 1.0 / s["rate"]})
+    c = SETTINGS_LAYOUT.pack({**s, "period": 1.0 / s["rate"], "control_law": CONTROLLERS.index(s.get("controller", "pid"))})
     c[SETTINGS_LAYOUT.block("velocity")] = PidGains(
         s["velocity.kp"], s["velocity.ki"], s["velocity.kd"], s["velocity.derivative_filter"],
         s["max_pitch_ref"], s["velocity.setpoint_weight"],
@@ -137,7 +152,45 @@ def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
         s["pitch.kp"], s["pitch.ki"], s["pitch.kd"], s["pitch.derivative_filter"], s["max_wheel_torque"],
     ).vector()
     c[SETTINGS_LAYOUT.block("yaw_rate")] = PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"]).vector()
+    if c[C_CONTROLLER] == 1.0:
+        from twbr_control.lqr import GAIN_NAMES, design
+
+        gains = design(s)
+        c[SETTINGS_LAYOUT.block("lqr")] = [gains[name] for name in GAIN_NAMES]
     return c
+
+
+@kernel
+def _lqr_integral(k, slot, error, dt, unlimited_of_integral, gain, limit):
+    """Integrate `error` into k[slot] unless the output -gain*integral + rest is past `limit` and the step
+    pushes it further (anti-windup). Returns the output before its limit."""
+    candidate = k[slot] + error * dt
+    unlimited = unlimited_of_integral - gain * candidate
+    if abs(unlimited) > limit and (unlimited - (unlimited_of_integral - gain * k[slot])) * unlimited > 0.0:
+        return unlimited_of_integral - gain * k[slot]
+    k[slot] = candidate
+    return unlimited
+
+
+@kernel
+def _lqr(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
+    """The LQR law on the shaped references: (pitch_ref equivalent, common, differential, saturated flags)."""
+    g = C_LQR
+    limit = c[C_MAX_TORQUE]
+    error_v = velocity - k[K_V_SHAPED]
+    # set-point weighting as in the cascade's velocity loop: the proportional term sees b * v_ref
+    rest = -(c[g + 1] * (velocity - c[C_LQR_WEIGHT] * k[K_V_SHAPED]) + c[g + 2] * (pitch - c[C_PITCH_OFFSET])
+             + c[g + 3] * pitch_rate)
+    unlimited = _lqr_integral(k, K_LQR_POSITION, error_v, dt, rest, c[g], limit)
+    common = _clip(unlimited, limit)
+    # the pitch the speed terms ask for: what the cascade would call its pitch reference
+    pitch_ref = c[C_PITCH_OFFSET] - (c[g] * k[K_LQR_POSITION] + c[g + 1] * (velocity - c[C_LQR_WEIGHT] * k[K_V_SHAPED])
+                                     ) / c[g + 2]
+    headroom = limit - abs(common)
+    error_w = yaw_rate - k[K_W_SHAPED]
+    requested = _lqr_integral(k, K_LQR_HEADING, error_w, dt, -c[g + 5] * error_w, c[g + 4], headroom)
+    differential = _clip(requested, headroom)
+    return pitch_ref, common, differential, common != unlimited or differential != requested
 
 
 @kernel
@@ -149,8 +202,18 @@ def cascade_reset(k):
     k[K_HAS_LAST] = 0.0
     k[K_COMMON_SAT] = 0.0
     k[K_DIFF_SAT] = 0.0
-    for i in range(K_V_SHAPED, K_W_SLOPE + 1):  # the robot is at rest after any of these: references from zero
+    for i in range(K_V_SHAPED, K_LQR_HEADING + 1):  # at rest after any of these: references from zero
         k[i] = 0.0
+
+
+@kernel
+def _low_pass(k, slot, measurement, time_constant, dt):
+    """First-order low-pass of a measurement into k[slot] (from the measurement itself after a reset)."""
+    if time_constant <= 0.0 or k[K_FILTERS_READY] == 0.0:
+        k[slot] = measurement
+    else:
+        k[slot] += dt / (time_constant + dt) * (measurement - k[slot])
+    return k[slot]
 
 
 @kernel
@@ -185,9 +248,33 @@ def _sample_time(c, k, stamp):
 
 
 @kernel
+def _cascade(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
+    """The paper's cascade on the shaped references: (pitch_ref, common, differential, pitch_ref limited,
+    torque saturated)."""
+    velocity_pid = k[K_VELOCITY:K_PITCH]
+    pitch_pid = k[K_PITCH:K_YAW_RATE]
+    yaw_rate_pid = k[K_YAW_RATE:]
+    # The velocity loop must not wind up while the torque it asks for through the pitch loop is
+    # saturated: a positive pitch_ref asks for a negative common torque first.
+    pitch_ref = c[C_PITCH_OFFSET] + pid_update(
+        c[C_VELOCITY:C_PITCH], velocity_pid, k[K_V_SHAPED], velocity, dt, 0.0, False, -int(k[K_COMMON_SAT]),
+    )
+    pitch_ref_limited = velocity_pid[M_LIMITED] != 0.0
+    common = -pid_update(c[C_PITCH:C_YAW_RATE], pitch_pid, pitch_ref, pitch, dt, pitch_rate, True, 0)
+    pitch_limited = pitch_pid[M_LIMITED] != 0.0
+    k[K_COMMON_SAT] = _copysign_int(common) if pitch_limited else 0
+    headroom = c[C_MAX_TORQUE] - abs(common)
+    requested = pid_update(c[C_YAW_RATE:], yaw_rate_pid, k[K_W_SHAPED], yaw_rate, dt, 0.0, False, int(k[K_DIFF_SAT]))
+    differential = _clip(requested, headroom)
+    k[K_DIFF_SAT] = _copysign_int(requested) if differential != requested else 0
+    return pitch_ref, common, differential, pitch_ref_limited, pitch_limited or differential != requested
+
+
+@kernel
 def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_rate, pitch, pitch_rate,
-                    cmd_vel_stale):
-    """Wheel torques for the state stamped `stamp` [s] into `out` (O_*); stale cmd_vel: zero references."""
+                    cmd_vel_stale, hold):
+    """Wheel torques for the state stamped `stamp` [s] into `out` (O_*); stale cmd_vel: zero references;
+    `hold`: zero torque with the loops at rest (the estimator calibrating on the robot's stand)."""
     dt = _sample_time(c, k, stamp)
     k[K_LAST_STAMP] = stamp
     k[K_HAS_LAST] = 1.0
@@ -207,29 +294,25 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     differential = 0.0
     pitch_ref_limited = False
     torque_saturated = False
-    if k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
+    if hold:
+        cascade_reset(k)
+        k[K_LAST_STAMP] = stamp
+        k[K_HAS_LAST] = 1.0
+    elif k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
         # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
         # commands) then moves the proportional terms, and the torques, smoothly.
         _ramp(k, K_V_SHAPED, K_V_TARGET, K_V_SLOPE, velocity_ref, c[C_V_RAMP], dt)
         _ramp(k, K_W_SHAPED, K_W_TARGET, K_W_SLOPE, yaw_rate_ref, c[C_W_RAMP], dt)
-        velocity_pid = k[K_VELOCITY:K_PITCH]
-        pitch_pid = k[K_PITCH:K_YAW_RATE]
-        yaw_rate_pid = k[K_YAW_RATE:]
-        # The velocity loop must not wind up while the torque it asks for through the pitch loop is
-        # saturated: a positive pitch_ref asks for a negative common torque first.
-        pitch_ref = c[C_PITCH_OFFSET] + pid_update(
-            c[C_VELOCITY:C_PITCH], velocity_pid, k[K_V_SHAPED], velocity, dt, 0.0, False, -int(k[K_COMMON_SAT]),
-        )
-        pitch_ref_limited = velocity_pid[M_LIMITED] != 0.0
-        common = -pid_update(c[C_PITCH:C_YAW_RATE], pitch_pid, pitch_ref, pitch, dt, pitch_rate, True, 0)
-        pitch_limited = pitch_pid[M_LIMITED] != 0.0
-        k[K_COMMON_SAT] = _copysign_int(common) if pitch_limited else 0
-        headroom = c[C_MAX_TORQUE] - abs(common)
-        requested = pid_update(c[C_YAW_RATE:], yaw_rate_pid, k[K_W_SHAPED], yaw_rate, dt, 0.0, False,
-                               int(k[K_DIFF_SAT]))
-        differential = _clip(requested, headroom)
-        k[K_DIFF_SAT] = _copysign_int(requested) if differential != requested else 0
-        torque_saturated = pitch_limited or differential != requested
+        # Encoder speeds move in whole counts: the outer loops may see them low-passed.
+        velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)
+        yaw_rate = _low_pass(k, K_W_FILTERED, yaw_rate, c[C_W_MEASUREMENT_FILTER], dt)
+        k[K_FILTERS_READY] = 1.0
+        if c[C_CONTROLLER] == 1.0:
+            pitch_ref, common, differential, torque_saturated = _lqr(c, k, velocity, yaw_rate, pitch, pitch_rate,
+                                                                     dt)
+        else:
+            pitch_ref, common, differential, pitch_ref_limited, torque_saturated = _cascade(
+                c, k, velocity, yaw_rate, pitch, pitch_rate, dt)
     out[O_VELOCITY_REF] = velocity_ref
     out[O_YAW_RATE_REF] = yaw_rate_ref
     out[O_PITCH_REF] = pitch_ref
@@ -303,11 +386,12 @@ class CascadeController:
         pitch: float,
         pitch_rate: float,
         cmd_vel_stale: bool = False,
+        hold: bool = False,
     ) -> ControlOutput:
         """Wheel torques for the state stamped `stamp` [s]; stale cmd_vel means zero references."""
         o = self._out
         cascade_compute(self.c, self.k, o, float(stamp), float(velocity_ref), float(yaw_rate_ref), float(velocity),
-                        float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale))
+                        float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale), bool(hold))
         return ControlOutput(
             stamp=stamp, velocity_ref=float(o[O_VELOCITY_REF]), velocity_ref_shaped=float(o[O_V_SHAPED]),
             velocity=velocity, yaw_rate_ref=float(o[O_YAW_RATE_REF]), yaw_rate_ref_shaped=float(o[O_W_SHAPED]),
@@ -315,5 +399,5 @@ class CascadeController:
             pitch_rate=pitch_rate, common_torque=float(o[O_COMMON]), differential_torque=float(o[O_DIFFERENTIAL]),
             left_torque=float(o[O_LEFT]), right_torque=float(o[O_RIGHT]), dt=float(o[O_DT]),
             pitch_ref_limited=bool(o[O_PITCH_REF_LIMITED]), torque_saturated=bool(o[O_TORQUE_SATURATED]),
-            cmd_vel_stale=cmd_vel_stale, fallen=self.fallen, enabled=self.enabled,
+            cmd_vel_stale=cmd_vel_stale, fallen=self.fallen, enabled=self.enabled, calibrating=hold,
         )

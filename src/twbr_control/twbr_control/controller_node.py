@@ -105,6 +105,7 @@ class ControllerNode(Node):
             if not self._admit("imu", stamp, (gyro_y, a.x, a.z)):
                 return
             pitch, pitch_rate = self.estimator.update(stamp, gyro_y, a.x, a.z, self._velocity)
+            velocity = self.estimator.velocity
             self._estimated = True
         else:
             if raw:
@@ -117,9 +118,10 @@ class ControllerNode(Node):
             pitch_rate = gyro_y
             if not self._admit("imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
                 return
+            velocity = None
             self._estimated = False
         self._stamps["imu"] = msg.header.stamp
-        self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate))
+        self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate, velocity))
 
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
         values = (twist.linear.x, twist.angular.z)
@@ -153,7 +155,8 @@ class ControllerNode(Node):
         elif action is Action.COMPUTE and state is not None:
             velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
             out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
-                                          state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale)
+                                          state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale,
+                                          hold=self._estimated and self.estimator.calibrating)
             if self._estimated:
                 out = replace(out, pitch_estimated=True, gyro_bias=self.estimator.bias,
                               accelerometer_pitch=self.estimator.accelerometer_pitch)

@@ -9,30 +9,37 @@ from collections.abc import Mapping
 from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
+from twbr_control.lqr import LQR_SPECS
 
 GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
-    ParamSpec("velocity.kp", 0.4529, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
-    ParamSpec("velocity.ki", 0.6938, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
+    ParamSpec("velocity.kp", 0.4076, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
+    ParamSpec("velocity.ki", 0.6758, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
     ParamSpec("velocity.kd", 0.0, "velocity loop: derivative gain on the measured speed", "rad·s²/m", 0.0, 100.0),
-    ParamSpec("velocity.setpoint_weight", 0.494, "velocity loop: weight b of v_ref in the proportional term"
+    ParamSpec("velocity.setpoint_weight", 0.4255, "velocity loop: weight b of v_ref in the proportional term"
               " (b*v_ref - v); b < 1 means less overshoot and roll-back on a step", "", 0.0, 1.0),
+    ParamSpec("velocity.measurement_filter", 0.0, "velocity loop: low-pass time constant on the measured speed (an"
+              " encoder's speed moves in whole counts); 0: none", "s", 0.0, 1.0),
+    ParamSpec("yaw_rate.measurement_filter", 0.0, "yaw-rate loop: low-pass time constant on the measured yaw rate;"
+              " 0: none", "s", 0.0, 1.0),
     ParamSpec("velocity.derivative_filter", 0.02, "velocity loop: low-pass time constant of the derivative", "s",
               0.0, 1.0),
-    ParamSpec("pitch.kp", 42.52, "pitch loop: common wheel torque per rad of pitch error", "N·m/rad", 0.0, 10000.0),
+    ParamSpec("pitch.kp", 49.24, "pitch loop: common wheel torque per rad of pitch error", "N·m/rad", 0.0, 10000.0),
     ParamSpec("pitch.ki", 0.0, "pitch loop: integral gain", "N·m/(rad·s)", 0.0, 10000.0),
-    ParamSpec("pitch.kd", 8.793, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("pitch.kd", 9.445, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
     ParamSpec("pitch.derivative_filter", 0.005, "pitch loop: low-pass time constant of the derivative", "s",
               0.0, 1.0),
-    ParamSpec("yaw_rate.kp", 3.429, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
-    ParamSpec("yaw_rate.ki", 0.9293, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.kp", 1.806, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.ki", 0.9235, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
 )
 
 CONTROL_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("controller", "pid", "balance and yaw control law: the paper's cascaded PID (pid), or LQR on the"
+              " linearised model of lqr.robot_file, gains computed at start-up (lqr)", choices=("pid", "lqr")),
     ParamSpec("rate", 200.0, "control rate: one command per state at most this often (in lockstep, set the"
               " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
     *tunable(ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
-    ParamSpec("reference_ramp.velocity", 0.0, "a new v_ref is reached in a straight line over this time before"
+    ParamSpec("reference_ramp.velocity", 0.2733, "a new v_ref is reached in a straight line over this time before"
               " the velocity loop sees it (a step then asks for less roll-back); 0: at once", "s", 0.0, 5.0),
     ParamSpec("reference_ramp.yaw_rate", 0.0, "a new omega_ref is reached in a straight line over this time"
               " (one period of a 20 Hz planner: its commands are interpolated, and the torque moves smoothly);"
@@ -49,14 +56,21 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " angular_velocity.y (orientation), the estimator on gyro and accelerometer (estimator), or the"
               " estimator only when the imu reports no orientation, orientation_covariance[0] = -1 (auto)",
               choices=("auto", "orientation", "estimator")),
-    ParamSpec("estimator.time_constant", 0.5, "estimator: time constant with which the accelerometer's gravity"
+    ParamSpec("estimator.time_constant", 1.0, "estimator: time constant with which the accelerometer's gravity"
               " direction corrects the integrated gyro (shorter: follows the accelerometer's noise and the"
               " robot's accelerations more)", "s", 0.01, 10.0),
     ParamSpec("estimator.bias_time_constant", 5.0, "estimator: time constant of the gyro bias estimate; 0: no"
               " bias estimation", "s", 0.0, 1000.0),
+    ParamSpec("estimator.calibration_time", 0.5, "estimator: for this long after its first reading the robot stands"
+              " still on its stand and the controller holds zero torque: the gyro's mean reading is its bias, the"
+              " accelerometer's its pitch (a moving reading ends it early); 0: none", "s", 0.0, 60.0),
+    ParamSpec("estimator.velocity_time_constant", 0.1, "estimator: time constant with which the odometry's speed"
+              " corrects the accelerometer's integrated forward acceleration (the velocity loop then sees a speed"
+              " without an encoder's count steps); 0: the odometry's speed as it is", "s", 0.0, 10.0),
     ParamSpec("max_sample_gap", 0.05, "a longer gap between states restarts the derivatives and caps the"
               " integration step", "s", 0.001, 1.0),
     *GAIN_SPECS,
+    *tunable(*LQR_SPECS),
 )
 
 NODE_SPECS: tuple[ParamSpec, ...] = (

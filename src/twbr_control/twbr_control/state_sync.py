@@ -37,7 +37,7 @@ class StateSync:
     def reset(self) -> None:
         """Forget every sample and the schedule (a restarted clock): the next complete state computes."""
         self._odom: tuple[float, float, float] | None = None
-        self._imu: tuple[float, float, float] | None = None
+        self._imu: tuple[float, float, float, float | None] | None = None
         self.last_stamp: float | None = None
         self._next_due: float | None = None
 
@@ -51,15 +51,18 @@ class StateSync:
         self._odom = (stamp, velocity, yaw_rate)
         return self._decide()
 
-    def offer_imu(self, stamp: float, pitch: float, pitch_rate: float) -> tuple[Action, RobotState | None]:
-        self._imu = (stamp, pitch, pitch_rate)
+    def offer_imu(self, stamp: float, pitch: float, pitch_rate: float,
+                  velocity: float | None = None) -> tuple[Action, RobotState | None]:
+        """`velocity` [m/s], when given, replaces odom's speed in the state (an estimator's, fused from both)."""
+        self._imu = (stamp, pitch, pitch_rate, velocity)
         return self._decide()
 
     def _decide(self) -> tuple[Action, RobotState | None]:
         if self._odom is None or self._imu is None:
             return Action.WAIT, None
         t_odom, velocity, yaw_rate = self._odom
-        t_imu, pitch, pitch_rate = self._imu
+        t_imu, pitch, pitch_rate, fused = self._imu
+        velocity = velocity if fused is None else fused
         if abs(t_odom - t_imu) > self.tolerance + 1e-12:
             return Action.WAIT, None
         stamp = max(t_odom, t_imu)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 from twbr_common.params import ConfigError
 from twbr_common.paths import config_dirs
@@ -40,3 +41,22 @@ def find_scenario(value: str) -> Path:
     choices = ", ".join(scenario_names() + [f"suite/{n}" for n in suite_names()]) or "(none installed)"
     raise ConfigError(f"invalid parameter 'scenario' = {value!r}: must be a scenario file or one of {choices}")
 
+
+
+SENSOR_PRESETS = ("ideal", "realistic")
+
+
+def sensor_preset(name: str) -> dict[str, Any]:
+    """The simulator's sensor parameters of a preset: none for ideal, config/sensors_realistic.yaml's for
+    realistic (the file a user passes to sim_node, so studies and the graph use the same figures)."""
+    from twbr_common.param_files import node_parameters
+
+    if name not in SENSOR_PRESETS:
+        raise ConfigError(f"unknown sensors {name!r}: one of {', '.join(SENSOR_PRESETS)}")
+    if name == "ideal":
+        return {}
+    for d in config_dirs():
+        path = d / f"sensors_{name}.yaml"
+        if path.is_file():
+            return node_parameters(path, "sim_node")
+    raise ConfigError(f"sensors_{name}.yaml is in none of {', '.join(map(str, config_dirs()))}")

@@ -25,6 +25,9 @@ from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
 from twbr_sim.traction import TRACTION_SPECS, traction_flags, wheel_loads
 from twbr_sim.world import Assessment, World
 
+# What a batch study may set of the robot's sensors and traction (SIM_SPECS has them all).
+SENSOR_SPECS: tuple[ParamSpec, ...] = (*IMU_SPECS, *ENCODER_SPECS, *TRACTION_SPECS)
+
 SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("physics_rate", 1000.0, "rate of the RK4 integration of dynamics and motors", "Hz", 10.0, 100000.0),
     ParamSpec(
@@ -61,9 +64,7 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tf_rate", 50.0, "rate of the odom -> base_link transform", "Hz", 0.1, 1000.0),
     ParamSpec("odom_frame", "odom", "fixed frame of odom, target and obstacles"),
     ParamSpec("base_frame", "base_link", "robot frame (axle centre, pitched with the body)"),
-    *IMU_SPECS,
-    *ENCODER_SPECS,
-    *TRACTION_SPECS,
+    *SENSOR_SPECS,
     *INPUT_SPECS,
 )
 
