@@ -103,7 +103,7 @@ def test_realistic_sensors_and_either_controller_run_the_same_in_the_batch(name,
     result = batch.run_batch(load_scenario(path), seeds, params, control={"controller": controller},
                              sim=sensor_preset("realistic"), record=True)
     for i, seed in enumerate(seeds):
-        row, trace = mc.run_one_traced(str(path), seed, 0.2, sensors="realistic", controller=controller)
+        _row, trace = mc.run_one_traced(str(path), seed, 0.2, sensors="realistic", controller=controller)
         got = result.trace(i)
         assert len(got["t"]) == len(trace.t), f"{name} seed {seed}: run lengths differ"
         for column, field in COMPARED:
