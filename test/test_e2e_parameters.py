@@ -91,7 +91,7 @@ def test_param_dump_and_get_work_on_every_node(launch, ros):
     launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", params=("robot.yaml", "sim.yaml"))
     dumps = {node: _dump(ros, node) for node in ("controller_node", "planner_node", "world_node", "command_player",
                                                  "sim_node")}
-    assert dumps["controller_node"]["pitch.kp"] == 42.52
+    assert dumps["controller_node"]["pitch.kp"] == 48.81
     assert dumps["planner_node"]["k_o"] == 10.0
     assert dumps["sim_node"]["body_mass"] == 12.0 and dumps["sim_node"]["mode"] == "lockstep"
     for dump in dumps.values():
@@ -113,7 +113,7 @@ def test_a_namespaced_graph_takes_the_shipped_params_files(launch, ros):
     sim = launch("twbr_sim", "sim_node", *ns, "-p", f"scenario:={COURSE}", "-p", "duration:=3.0",
                  "-p", "wait_for_subscribers:=2", params=("robot.yaml", "sim.yaml"))
     dump = _dump(ros, "/robot1/controller_node")
-    assert dump["use_sim_time"] is True and dump["pitch.kp"] == 42.52
+    assert dump["use_sim_time"] is True and dump["pitch.kp"] == 48.81
     assert _dump(ros, "/robot1/planner_node")["k_o"] == 10.0
     assert ros.spin_until(lambda: not sim.running, 60.0), sim.output
     assert sim.wait(timeout=1) == 0, sim.output
@@ -146,7 +146,7 @@ def test_gains_change_at_runtime_through_set_parameters_and_bad_changes_are_refu
     assert ok.successful, ok.reason
     assert ros.spin_until(lambda: states[-1].parameter_revision == 1, 5.0)
     assert _call(ros, client.get_parameters(["pitch.kp"])).values[0].double_value == 40.0
-    assert "parameters changed at runtime: pitch.kp 42.52 -> 40.0" in controller.output
+    assert "parameters changed at runtime: pitch.kp 48.81 -> 40.0" in controller.output
 
     out_of_range = set_(("pitch.kp", -1.0))
     assert not out_of_range.successful and "pitch.kp" in out_of_range.reason

@@ -28,11 +28,12 @@ def test_robot_layout_holds_every_robot_parameter_by_name_then_the_derived_const
 
 def test_controller_settings_take_each_parameter_from_its_spec_name():
     cfg = defaults(CONTROL_SPECS)
-    scalars = [n for n in cascade.SETTINGS_LAYOUT.names if n not in ("velocity", "pitch", "yaw_rate")]
+    scalars = [n for n in cascade.SETTINGS_LAYOUT.names if n not in ("velocity", "pitch", "yaw_rate", "lqr")]
     spec_names = {s.name for s in CONTROL_SPECS}
-    assert set(scalars) - spec_names == {"period"}  # 1/rate, the one derived slot
+    # the derived slots: 1/rate, and `controller` as a number (its LQR gains are the `lqr` block)
+    assert set(scalars) - spec_names == {"period", "control_law"}
     # A distinct value per parameter lands in its own slot.
-    distinct = {n: 0.01 * (i + 1) for i, n in enumerate(scalars) if n != "period"}
+    distinct = {n: 0.01 * (i + 1) for i, n in enumerate(scalars) if n not in ("period", "control_law")}
     c = cascade.settings_vector({**cfg, **distinct, "rate": 250.0})
     for name, value in distinct.items():
         assert c[cascade.SETTINGS_LAYOUT[name]] == value, name
@@ -70,3 +71,11 @@ def test_state_layout_is_the_state_names():
     s = dynamics.initial_state(1.0, 2.0, 0.3, 0.01)
     assert (s[dynamics.S_XC], s[dynamics.S_YC], s[dynamics.S_PSI], s[dynamics.S_TH]) == (1.0, 2.0, 0.3, 0.01)
     assert s.shape == (len(dynamics.STATE_LAYOUT),) and np.count_nonzero(s) == 4
+
+
+def test_lqr_gains_fill_their_block_only_for_the_lqr_law():
+    cfg = defaults(CONTROL_SPECS)
+    assert not cascade.settings_vector(cfg)[cascade.SETTINGS_LAYOUT.block("lqr")].any()
+    c = cascade.settings_vector({**cfg, "controller": "lqr"})
+    assert c[cascade.C_CONTROLLER] == 1.0
+    assert np.all(c[cascade.SETTINGS_LAYOUT.block("lqr")] != 0.0)

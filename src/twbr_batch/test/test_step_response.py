@@ -27,7 +27,7 @@ def test_velocity_step_meets_the_papers_figure_6(v_step):
     r = check.response
     assert not check.fallen
     assert r.undershoot > 0.005  # it first rolls back (non-minimum phase) ...
-    assert r.undershoot < 0.3  # ... a little
+    assert r.undershoot <= 0.5 * 0.1  # ... "slightly backwards": at most half the step (issue 17)
     assert r.settle_time_s <= 1.5  # within 5 % of 0.1 m/s within 1.5 s and stays there
     assert r.overshoot_pct < 20.0
     assert r.steady_state_error_pct < 2.0
@@ -55,10 +55,14 @@ def test_combined_turn_and_drive_and_a_large_step_stay_balanced():
 
 
 def test_untuned_lqr_start_is_worse_than_the_shipped_gains():
-    """The tuner earned its keep: the shipped gains settle faster than its LQR starting point."""
-    start = check_step(velocity_step({**GAINS, **lqr_balance_gains()}), "velocity", "velocity_ref")
-    shipped = check_step(velocity_step(GAINS), "velocity", "velocity_ref")
-    assert shipped.response.settle_time_s < start.response.settle_time_s
+    """The tuner earned its keep: on its own cost (settling, overshoot, roll-back past half the step, over the
+    three robots with ideal sensors and six realistic-sensor runs) the shipped gains beat its LQR start."""
+    from twbr_batch.tuning import _balance_cost, tuning_cases
+
+    start = {**GAINS, **lqr_balance_gains(), "velocity.setpoint_weight": 0.5, "reference_ramp.velocity": 0.2}
+    cases = tuning_cases(sensors=True)
+    cost = [np.mean([_balance_cost(case.velocity_step(g)) for case in cases]) for g in (start, GAINS)]
+    assert cost[1] < cost[0]
 
 
 def test_config_file_carries_the_shipped_gains():
@@ -67,7 +71,8 @@ def test_config_file_carries_the_shipped_gains():
 
     params = node_parameters(config_dir() / "controller.yaml", "controller_node")
     for name in ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight",
-                 "yaw_rate.kp", "yaw_rate.ki"):
+                 "reference_ramp.velocity", "yaw_rate.kp", "yaw_rate.ki", "lqr.q_position", "lqr.q_velocity",
+                 "lqr.q_pitch", "lqr.q_pitch_rate", "lqr.setpoint_weight", "lqr.q_heading", "lqr.q_yaw_rate"):
         assert params[name] == GAINS[name], name
 
 

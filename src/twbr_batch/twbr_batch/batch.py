@@ -155,7 +155,7 @@ SETTLING_TIME = 2.0  # [s] the start's transient, left out of pitch_abs_max_sett
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
 # [m/s], yaw [rad], the controller's wheel torque commands [N*m] and the references [m/s, rad/s].
 TRACE_COLUMNS = ("t", "x_c", "y_c", "pitch", "velocity", "yaw", "left_torque", "right_torque", "velocity_ref",
-                 "yaw_rate_ref")
+                 "yaw_rate_ref", "pitch_true", "velocity_true")
 TRACE_LAYOUT = Layout(TRACE_COLUMNS)
 T_T = TRACE_LAYOUT["t"]
 T_X_C = TRACE_LAYOUT["x_c"]
@@ -167,6 +167,8 @@ T_LEFT_TORQUE = TRACE_LAYOUT["left_torque"]
 T_RIGHT_TORQUE = TRACE_LAYOUT["right_torque"]
 T_VELOCITY_REF = TRACE_LAYOUT["velocity_ref"]
 T_YAW_RATE_REF = TRACE_LAYOUT["yaw_rate_ref"]
+T_PITCH_TRUE = TRACE_LAYOUT["pitch_true"]  # the body's [rad] (pitch: what the controller used)
+T_VELOCITY_TRUE = TRACE_LAYOUT["velocity_true"]  # the axle's [m/s] (velocity: what the controller used)
 N_TRACE = len(TRACE_LAYOUT)
 
 
@@ -350,6 +352,8 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
             row[T_RIGHT_TORQUE] = control_out[O_RIGHT]
             row[T_VELOCITY_REF] = control_out[O_VELOCITY_REF]
             row[T_YAW_RATE_REF] = control_out[O_YAW_RATE_REF]
+            row[T_PITCH_TRUE] = true_pitch
+            row[T_VELOCITY_TRUE] = state[S_XD]
         if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
             break
         left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit

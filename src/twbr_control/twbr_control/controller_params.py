@@ -12,10 +12,10 @@ from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, valida
 from twbr_control.lqr import LQR_SPECS
 
 GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
-    ParamSpec("velocity.kp", 0.4076, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
-    ParamSpec("velocity.ki", 0.6758, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
+    ParamSpec("velocity.kp", 0.4129, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
+    ParamSpec("velocity.ki", 0.6697, "velocity loop: integral gain", "rad/m", 0.0, 100.0),
     ParamSpec("velocity.kd", 0.0, "velocity loop: derivative gain on the measured speed", "rad·s²/m", 0.0, 100.0),
-    ParamSpec("velocity.setpoint_weight", 0.4255, "velocity loop: weight b of v_ref in the proportional term"
+    ParamSpec("velocity.setpoint_weight", 0.4181, "velocity loop: weight b of v_ref in the proportional term"
               " (b*v_ref - v); b < 1 means less overshoot and roll-back on a step", "", 0.0, 1.0),
     ParamSpec("velocity.measurement_filter", 0.0, "velocity loop: low-pass time constant on the measured speed (an"
               " encoder's speed moves in whole counts); 0: none", "s", 0.0, 1.0),
@@ -23,13 +23,13 @@ GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
               " 0: none", "s", 0.0, 1.0),
     ParamSpec("velocity.derivative_filter", 0.02, "velocity loop: low-pass time constant of the derivative", "s",
               0.0, 1.0),
-    ParamSpec("pitch.kp", 49.24, "pitch loop: common wheel torque per rad of pitch error", "N·m/rad", 0.0, 10000.0),
+    ParamSpec("pitch.kp", 48.81, "pitch loop: common wheel torque per rad of pitch error", "N·m/rad", 0.0, 10000.0),
     ParamSpec("pitch.ki", 0.0, "pitch loop: integral gain", "N·m/(rad·s)", 0.0, 10000.0),
-    ParamSpec("pitch.kd", 9.445, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("pitch.kd", 9.667, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
     ParamSpec("pitch.derivative_filter", 0.005, "pitch loop: low-pass time constant of the derivative", "s",
               0.0, 1.0),
-    ParamSpec("yaw_rate.kp", 1.806, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
-    ParamSpec("yaw_rate.ki", 0.9235, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.kp", 1.702, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.ki", 0.9198, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
 )
 
 CONTROL_SPECS: tuple[ParamSpec, ...] = (
@@ -39,7 +39,7 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
     *tunable(ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
-    ParamSpec("reference_ramp.velocity", 0.2733, "a new v_ref is reached in a straight line over this time before"
+    ParamSpec("reference_ramp.velocity", 0.2762, "a new v_ref is reached in a straight line over this time before"
               " the velocity loop sees it (a step then asks for less roll-back); 0: at once", "s", 0.0, 5.0),
     ParamSpec("reference_ramp.yaw_rate", 0.0, "a new omega_ref is reached in a straight line over this time"
               " (one period of a 20 Hz planner: its commands are interpolated, and the torque moves smoothly);"

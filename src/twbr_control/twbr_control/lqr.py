@@ -20,18 +20,18 @@ import numpy as np
 from twbr_common.params import ConfigError, ParamSpec, defaults, validate_all
 
 LQR_SPECS: tuple[ParamSpec, ...] = (
-    ParamSpec("lqr.q_position", 5414.0, "LQR weight on the integral of the speed error (the position lag)", "1/m²",
+    ParamSpec("lqr.q_position", 454.9, "LQR weight on the integral of the speed error (the position lag)", "1/m²",
               0.0, 1e6),
-    ParamSpec("lqr.q_velocity", 0.9988, "LQR weight on the speed error", "s²/m²", 0.0, 1e6),
-    ParamSpec("lqr.q_pitch", 0.9974, "LQR weight on the pitch", "1/rad²", 0.0, 1e6),
-    ParamSpec("lqr.q_pitch_rate", 2.727, "LQR weight on the pitch rate", "s²/rad²", 0.0, 1e6),
-    ParamSpec("lqr.setpoint_weight", 0.4056, "weight b of v_ref in the speed term (b*v_ref - v), as the cascade's: b < 1"
+    ParamSpec("lqr.q_velocity", 0.9986, "LQR weight on the speed error", "s²/m²", 0.0, 1e6),
+    ParamSpec("lqr.q_pitch", 0.997, "LQR weight on the pitch", "1/rad²", 0.0, 1e6),
+    ParamSpec("lqr.q_pitch_rate", 2.79, "LQR weight on the pitch rate", "s²/rad²", 0.0, 1e6),
+    ParamSpec("lqr.setpoint_weight", 0.3519, "weight b of v_ref in the speed term (b*v_ref - v), as the cascade's: b < 1"
               " asks for less roll-back and overshoot on a step; the integral acts on the full error", "", 0.0, 1.0),
     ParamSpec("lqr.r_torque", 1.0, "LQR weight on each wheel's common torque", "1/(N·m)²", 0.0, 1e6,
               low_open=True),
-    ParamSpec("lqr.q_heading", 1.125, "LQR weight on the integral of the yaw-rate error (the heading lag)",
+    ParamSpec("lqr.q_heading", 1.197, "LQR weight on the integral of the yaw-rate error (the heading lag)",
               "1/rad²", 0.0, 1e6),
-    ParamSpec("lqr.q_yaw_rate", 15.32, "LQR weight on the yaw-rate error", "s²/rad²", 0.0, 1e6),
+    ParamSpec("lqr.q_yaw_rate", 2.879, "LQR weight on the yaw-rate error", "s²/rad²", 0.0, 1e6),
     ParamSpec("lqr.r_differential", 1.0, "LQR weight on the differential torque", "1/(N·m)²", 0.0, 1e6,
               low_open=True),
     ParamSpec("lqr.robot_file", "", "robot.yaml whose sim_node section the LQR gains are designed for; empty:"

@@ -21,7 +21,7 @@ TRANSIENT_S = 2.0  # s after the first non-zero reference: the paper's "first tr
 CONTROLLER_FIELDS = (
     "velocity_ref", "velocity", "yaw_rate_ref", "yaw_rate", "pitch_ref", "pitch", "pitch_rate",
     "common_torque", "differential_torque", "left_torque", "right_torque", "dt",
-    "pitch_ref_limited", "torque_saturated", "cmd_vel_stale", "fallen", "enabled",
+    "pitch_ref_limited", "torque_saturated", "cmd_vel_stale", "fallen", "enabled", "pitch_estimated",
 )
 
 
@@ -218,6 +218,13 @@ class RunMetrics:
     cmd_vel_stale_samples: int
     lockstep_timeouts: int | None
     commands_rejected: int | None
+    # Traction, from the simulator's last sim_status (None from a driver that does not report it)
+    wheel_lift_events: int | None
+    wheel_slip_events: int | None
+    wheel_lifted_time_s: float | None
+    wheel_slipping_time_s: float | None
+    # The estimator's pitch against the truth (ground_truth), when the controller estimated [rad]
+    pitch_estimate_rms_error_rad: float | None
     control_samples: int
     messages: dict[str, int]
     messages_refused: dict[str, int]
@@ -279,6 +286,15 @@ def navigation_metrics(s: RunSeries) -> NavigationMetrics:
     return out
 
 
+def _pitch_estimate_error(s: RunSeries) -> float | None:
+    """RMS of the controller's pitch (estimated) against the true pitch at the same stamps."""
+    estimated = s.control["pitch_estimated"].astype(bool) if "pitch_estimated" in s.control else None
+    if estimated is None or not estimated.any() or not len(s.odom_t):
+        return None
+    truth = np.interp(s.control_t[estimated], s.odom_t, s.pitch)
+    return _rms(s.control["pitch"][estimated] - truth)
+
+
 def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
                     step_responses: bool = True) -> RunMetrics:
     if len(s.control_t) == 0 or len(s.odom_t) == 0:
@@ -323,6 +339,11 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
         cmd_vel_stale_samples=int(c["cmd_vel_stale"].sum()),
         lockstep_timeouts=int(last_status.lockstep_timeouts) if last_status else None,
         commands_rejected=int(last_status.commands_rejected) if last_status else None,
+        wheel_lift_events=int(last_status.lift_events) if last_status else None,
+        wheel_slip_events=int(last_status.slip_events) if last_status else None,
+        wheel_lifted_time_s=float(last_status.lifted_time) if last_status else None,
+        wheel_slipping_time_s=float(last_status.slipping_time) if last_status else None,
+        pitch_estimate_rms_error_rad=_pitch_estimate_error(s),
         control_samples=len(s.control_t),
         messages=s.counts,
         messages_refused=s.refused,
