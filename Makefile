@@ -5,7 +5,7 @@ N ?= 100
 PERTURB ?= 0
 RUN := tools/run.sh
 
-.PHONY: all setup test test-long unit e2e demo montecarlo suite bench lint clean
+.PHONY: all setup test test-long unit e2e demo montecarlo suite bench robustness lint clean
 all: setup
 
 setup:
@@ -24,10 +24,10 @@ e2e: setup
 	@$(RUN) python -m pytest -q -m "e2e and not long"
 
 demo: setup
-	@$(RUN) python -m twbr_runner.runner $(SCENARIO)
+	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS))
 
 montecarlo: setup
-	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB)
+	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(CONTROLLER),--controller $(CONTROLLER))
 
 SUITE_N ?= 1000
 suite: setup
@@ -41,6 +41,12 @@ bench: setup
 	@$(RUN) python benchmarks/bench_graph.py --json $(BENCH_OUT)/graph.json
 	@$(RUN) python benchmarks/bench_lockstep.py --json $(BENCH_OUT)/lockstep.json
 	@$(RUN) python benchmarks/bench_control_loop.py --json $(BENCH_OUT)/control_loop.json
+	@$(RUN) python benchmarks/bench_torque.py
+
+# Issue 17's robustness table (pid and lqr, ideal and realistic sensors, nominal / ±20 / ±40 % robots)
+ROBUST_N ?= 1000
+robustness: setup
+	@$(RUN) python benchmarks/study_robustness.py -n $(ROBUST_N)
 
 lint: setup
 	@$(RUN) ruff check src test tools benchmarks

@@ -59,7 +59,7 @@ def test_untuned_lqr_start_is_worse_than_the_shipped_gains():
     three robots with ideal sensors and six realistic-sensor runs) the shipped gains beat its LQR start."""
     from twbr_batch.tuning import _balance_cost, tuning_cases
 
-    start = {**GAINS, **lqr_balance_gains(), "velocity.setpoint_weight": 0.5, "reference_ramp.velocity": 0.2}
+    start = {**GAINS, **lqr_balance_gains(), "velocity.setpoint_weight": 0.5, "reference_rate.velocity": 0.5}
     cases = tuning_cases(sensors=True)
     cost = [np.mean([_balance_cost(case.velocity_step(g)) for case in cases]) for g in (start, GAINS)]
     assert cost[1] < cost[0]
@@ -71,7 +71,7 @@ def test_config_file_carries_the_shipped_gains():
 
     params = node_parameters(config_dir() / "controller.yaml", "controller_node")
     for name in ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight",
-                 "reference_ramp.velocity", "yaw_rate.kp", "yaw_rate.ki", "lqr.q_position", "lqr.q_velocity",
+                 "reference_rate.velocity", "yaw_rate.kp", "yaw_rate.ki", "lqr.q_position", "lqr.q_velocity",
                  "lqr.q_pitch", "lqr.q_pitch_rate", "lqr.setpoint_weight", "lqr.q_heading", "lqr.q_yaw_rate"):
         assert params[name] == GAINS[name], name
 

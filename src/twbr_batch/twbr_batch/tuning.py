@@ -29,7 +29,7 @@ VELOCITY_STEP = 0.1  # m/s, the paper's Figure 6
 YAW_RATE_STEP = 0.5  # rad/s
 STEP_AT = 0.5  # s
 BALANCE_GAINS = ("pitch.kp", "pitch.kd", "velocity.kp", "velocity.ki", "velocity.setpoint_weight",
-                 "reference_ramp.velocity")
+                 "reference_rate.velocity")
 MAX_ROLLBACK = 0.5  # the step's wrong-way roll, as a fraction of the step: the paper's "slightly backwards"
 BOUNDS = {"velocity.setpoint_weight": 1.0, "lqr.setpoint_weight": 1.0}
 YAW_GAINS = ("yaw_rate.kp", "yaw_rate.ki")
@@ -210,7 +210,7 @@ def tune(base: Mapping[str, Any], max_evaluations: int = 300, sensors: bool = Fa
     balance_names, yaw_names = (LQR_BALANCE_WEIGHTS, LQR_YAW_WEIGHTS) if lqr else (BALANCE_GAINS, YAW_GAINS)
     if start is None:
         start = ({**{n: base[n] for n in balance_names}, "lqr.setpoint_weight": 0.5} if lqr
-                 else {**lqr_balance_gains(), "velocity.setpoint_weight": 0.5, "reference_ramp.velocity": 0.2})
+                 else {**lqr_balance_gains(), "velocity.setpoint_weight": 0.5, "reference_rate.velocity": 0.5})
     start_cost = float(np.mean([_balance_cost(case.velocity_step({**base, **start})) for case in tuning_cases(sensors)]))
     balance_gains, balance_cost, n1 = _minimise(Case.velocity_step, _balance_cost, balance_names, start, base,
                                                 max_evaluations, sensors)

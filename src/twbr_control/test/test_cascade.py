@@ -151,29 +151,39 @@ def test_a_cmd_vel_takes_effect_from_the_state_after_it_whatever_the_order_of_ar
     assert early.at(2.0) == (0.0, 0.0, True)
 
 
-def test_a_ramped_yaw_rate_step_moves_the_torque_in_tenths():
-    """reference_ramp.yaw_rate 0.05 s at 200 Hz: a new omega_ref is reached in 10 samples in a straight line, so
-    the yaw-rate loop's proportional kick is a tenth of the unramped one per sample."""
-    plain, ramped = make(), make(**{"reference_ramp.yaw_rate": 0.05})
+def test_a_rate_limited_yaw_rate_step_moves_the_torque_in_tenths():
+    """reference_rate.yaw_rate 8 rad/s^2 at 200 Hz: a 0.4 rad/s step is reached in 10 samples in a straight line,
+    so the yaw-rate loop's proportional kick is a tenth of the unlimited one per sample."""
+    plain, ramped = make(), make(**{"reference_rate.yaw_rate": 8.0})
     for c in (plain, ramped):
         c.compute(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     kick = plain.compute(0.005, 0.0, 0.4, 0.0, 0.0, 0.0, 0.0).differential_torque
     outs = [ramped.compute(0.005 * k, 0.0, 0.4, 0.0, 0.0, 0.0, 0.0) for k in range(1, 13)]
     shaped = [o.yaw_rate_ref_shaped for o in outs]
     assert shaped[:10] == pytest.approx([0.04 * k for k in range(1, 11)])
-    assert shaped[10:] == [0.4, 0.4]
+    assert shaped[10:] == pytest.approx([0.4, 0.4])
     assert all(o.yaw_rate_ref == 0.4 for o in outs)  # the command itself, as received
     steps = np.diff([0.0] + [o.differential_torque for o in outs[:10]])
     assert steps.max() < 0.11 * kick
-    # A change of command mid-ramp re-aims from where the ramp is: down to 0.2 within another 0.05 s.
     again = [ramped.compute(0.065 + 0.005 * k, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0).yaw_rate_ref_shaped for k in range(10)]
-    assert again[-1] == pytest.approx(0.2) and again[0] == pytest.approx(0.38)
+    assert again[0] == pytest.approx(0.36) and again[-1] == pytest.approx(0.2)
+
+
+def test_a_command_stream_within_the_rate_limit_passes_unchanged():
+    """A planner's speed commands change by at most its max_acceleration (0.06 m/s^2: 0.003 m/s per 50 ms): under
+    the controller's 0.36 m/s^2 each reaches the loop within two 5 ms samples, so the stream is not delayed."""
+    c = make()
+    for k in range(200):
+        reference = 0.003 * (k // 10)
+        shaped = c.compute(0.005 * k, reference, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped
+        if k % 10 >= 1:
+            assert shaped == pytest.approx(reference)
 
 
 def test_a_reset_starts_the_ramps_from_zero():
-    c = make(**{"reference_ramp.velocity": 0.2})
+    c = make(**{"reference_rate.velocity": 1.5})
     for k in range(100):
         c.compute(0.005 * k, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0)
     assert c.compute(0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == 0.3
     c.set_enabled(True)
-    assert c.compute(0.505, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == pytest.approx(0.3 * 0.005 / 0.2)
+    assert c.compute(0.505, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == pytest.approx(1.5 * 0.005)

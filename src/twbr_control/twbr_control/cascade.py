@@ -1,6 +1,6 @@
 """The paper's cascaded controller (its Figure 3) as a compiled kernel and a small class around it.
 
-References shaped by a ramp each (reference_ramp.*), then
+References rate-limited each (reference_rate.*), then
 velocity PID: v_ref - v -> pitch_ref (limited) ; pitch PID: pitch_ref - pitch -> common wheel torque ;
 yaw-rate PI: omega_ref - omega -> differential torque. Left = common - differential, right = common +
 differential, each limited to the motor torque, balance first: the differential part gets only the
@@ -30,7 +30,7 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 # gains (pid.GAINS_LAYOUT each).
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
-    "max_sample_gap", "reference_ramp.velocity", "reference_ramp.yaw_rate", "velocity.measurement_filter",
+    "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -41,8 +41,8 @@ C_PITCH_OFFSET = SETTINGS_LAYOUT["pitch_offset"]
 C_MAX_TORQUE = SETTINGS_LAYOUT["max_wheel_torque"]
 C_FALL_PITCH = SETTINGS_LAYOUT["fall_pitch"]
 C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
-C_V_RAMP = SETTINGS_LAYOUT["reference_ramp.velocity"]
-C_W_RAMP = SETTINGS_LAYOUT["reference_ramp.yaw_rate"]
+C_V_RATE = SETTINGS_LAYOUT["reference_rate.velocity"]  # [m/s^2]
+C_W_RATE = SETTINGS_LAYOUT["reference_rate.yaw_rate"]  # [rad/s^2]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -56,8 +56,7 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
-    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_ref_target", "yaw_rate_ref_target", "velocity_ref_slope",
-    "yaw_rate_ref_slope", "velocity_filtered", "yaw_rate_filtered", "filters_ready", "lqr_position", "lqr_heading",
+    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready", "lqr_position", "lqr_heading",
     ("velocity", N_MEMORY),
     ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
@@ -69,10 +68,6 @@ K_FALLEN = MEMORY_LAYOUT["fallen"]
 K_ENABLED = MEMORY_LAYOUT["enabled"]
 K_V_SHAPED = MEMORY_LAYOUT["velocity_ref_shaped"]
 K_W_SHAPED = MEMORY_LAYOUT["yaw_rate_ref_shaped"]
-K_V_TARGET = MEMORY_LAYOUT["velocity_ref_target"]
-K_W_TARGET = MEMORY_LAYOUT["yaw_rate_ref_target"]
-K_V_SLOPE = MEMORY_LAYOUT["velocity_ref_slope"]
-K_W_SLOPE = MEMORY_LAYOUT["yaw_rate_ref_slope"]
 K_V_FILTERED = MEMORY_LAYOUT["velocity_filtered"]
 K_W_FILTERED = MEMORY_LAYOUT["yaw_rate_filtered"]
 K_FILTERS_READY = MEMORY_LAYOUT["filters_ready"]
@@ -217,20 +212,13 @@ def _low_pass(k, slot, measurement, time_constant, dt):
 
 
 @kernel
-def _ramp(k, shaped, target, slope, reference, ramp_time, dt):
-    """Move k[shaped] towards `reference` in a straight line that takes `ramp_time` [s] from where it was
-    when the reference last changed (linear interpolation between a planner's commands); 0: at once."""
-    if ramp_time <= 0.0:
-        k[shaped] = reference
-        return
-    if reference != k[target]:
-        k[target] = reference
-        k[slope] = (reference - k[shaped]) / ramp_time
-    step = k[slope] * dt
-    if abs(reference - k[shaped]) <= abs(step):
+def _rate_limit(k, shaped, reference, rate, dt):
+    """Move k[shaped] towards `reference` by at most `rate` * dt (0: at once): a step becomes a ramp, a
+    command stream that changes no faster (a planner's, limited by its own max_acceleration) passes as is."""
+    if rate <= 0.0:
         k[shaped] = reference
     else:
-        k[shaped] += step
+        k[shaped] += _clip(reference - k[shaped], rate * dt)
 
 
 @kernel
@@ -301,8 +289,8 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     elif k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
         # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
         # commands) then moves the proportional terms, and the torques, smoothly.
-        _ramp(k, K_V_SHAPED, K_V_TARGET, K_V_SLOPE, velocity_ref, c[C_V_RAMP], dt)
-        _ramp(k, K_W_SHAPED, K_W_TARGET, K_W_SLOPE, yaw_rate_ref, c[C_W_RAMP], dt)
+        _rate_limit(k, K_V_SHAPED, velocity_ref, c[C_V_RATE], dt)
+        _rate_limit(k, K_W_SHAPED, yaw_rate_ref, c[C_W_RATE], dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.
         velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)
         yaw_rate = _low_pass(k, K_W_FILTERED, yaw_rate, c[C_W_MEASUREMENT_FILTER], dt)

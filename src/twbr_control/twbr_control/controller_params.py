@@ -39,11 +39,12 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " simulator's publish_rate to it)", "Hz", 1.0, 2000.0),
     *tunable(ParamSpec("max_velocity_ref", 1.5, "cmd_vel linear.x is clipped to +-this", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("max_yaw_rate_ref", 3.0, "cmd_vel angular.z is clipped to +-this", "rad/s", 0.0, 20.0, low_open=True),
-    ParamSpec("reference_ramp.velocity", 0.2762, "a new v_ref is reached in a straight line over this time before"
-              " the velocity loop sees it (a step then asks for less roll-back); 0: at once", "s", 0.0, 5.0),
-    ParamSpec("reference_ramp.yaw_rate", 0.0, "a new omega_ref is reached in a straight line over this time"
-              " (one period of a 20 Hz planner: its commands are interpolated, and the torque moves smoothly);"
-              " 0: at once", "s", 0.0, 5.0),
+    ParamSpec("reference_rate.velocity", 0.3621, "largest rate of change of v_ref the velocity loop sees: a step"
+              " becomes a ramp and asks for less roll-back; a planner's commands, limited by its own"
+              " max_acceleration, pass as they are; 0: no limit", "m/s²", 0.0, 100.0),
+    ParamSpec("reference_rate.yaw_rate", 0.0, "largest rate of change of omega_ref the yaw-rate loop sees (1.0, a"
+              " 20 Hz planner's max_yaw_acceleration, interpolates its command steps: no 20 Hz torque sawtooth);"
+              " 0: no limit", "rad/s²", 0.0, 1000.0),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",
