@@ -56,9 +56,8 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
-    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready", "lqr_position", "lqr_heading",
-    ("velocity", N_MEMORY),
-    ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
+    "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
