@@ -243,8 +243,10 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     fallen = False
     world_next = -math.inf
     plan_next = -math.inf
-    v_ref = 0.0
+    v_ref = 0.0  # the references in effect (a plan's take effect from the next sample, as cmd_vel in the graph)
     w_ref = 0.0
+    next_v = 0.0
+    next_w = 0.0
     reached_at = math.nan
     min_clearance = math.inf
     pitch_min = math.inf
@@ -315,8 +317,8 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                 obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
                 plan_step(a, memory, ring, plan_out, t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx, tvy,
                           positions, obstacle_velocity, radii, distances)
-                v_ref = plan_out[Q_V]
-                w_ref = plan_out[Q_OMEGA]
+                next_v = plan_out[Q_V]
+                next_w = plan_out[Q_OMEGA]
                 stuck_at_end = plan_out[Q_MODE] == STUCK
                 if stuck_at_end:
                     stuck_steps += 1
@@ -354,6 +356,9 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
             row[T_YAW_RATE_REF] = control_out[O_YAW_RATE_REF]
             row[T_PITCH_TRUE] = true_pitch
             row[T_VELOCITY_TRUE] = state[S_XD]
+        if has_target:  # the controller takes a cmd_vel from the first state stamped after it
+            v_ref = next_v
+            w_ref = next_w
         if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
             break
         left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit

@@ -138,7 +138,8 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
         out = core.step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
         if log is not None:
             log.append(out)
-        held["cmd"] = (out.velocity_cmd, out.yaw_rate_cmd)
-        return held["cmd"]
+        # In effect from the next state on, as controller_node takes a cmd_vel (state_sync.VelocityCommand).
+        in_effect, held["cmd"] = held["cmd"], (out.velocity_cmd, out.yaw_rate_cmd)
+        return in_effect
 
     return reference

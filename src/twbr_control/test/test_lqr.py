@@ -74,11 +74,12 @@ def test_the_lqr_step_meets_the_paper_on_the_nonlinear_model():
 def test_the_integral_does_not_wind_up_while_the_torque_is_saturated():
     """Held against the torque limit for 2 s (a wall), the integral of the speed error stops growing, so the
     robot does not lurch once free."""
-    c = CascadeController(resolve({**LQR, "max_wheel_torque": 1.0}))
+    held = {**LQR, "max_wheel_torque": 1.0, "reference_rate.velocity": 0.0}
+    c = CascadeController(resolve(held))
     for k in range(400):
         out = c.compute(0.005 * k, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     assert out.torque_saturated
-    c2 = CascadeController(resolve({**LQR, "max_wheel_torque": 1.0}))
+    c2 = CascadeController(resolve(held))
     for k in range(40):
         c2.compute(0.005 * k, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     from twbr_control.cascade import K_LQR_POSITION

@@ -28,8 +28,8 @@ GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
     ParamSpec("pitch.kd", 9.667, "pitch loop: derivative gain on the measured pitch rate", "N·m·s/rad", 0.0, 1000.0),
     ParamSpec("pitch.derivative_filter", 0.005, "pitch loop: low-pass time constant of the derivative", "s",
               0.0, 1.0),
-    ParamSpec("yaw_rate.kp", 1.702, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
-    ParamSpec("yaw_rate.ki", 0.9198, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.kp", 3.429, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.ki", 0.9293, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
 )
 
 CONTROL_SPECS: tuple[ParamSpec, ...] = (
