@@ -22,8 +22,8 @@ import scipy.optimize
 from twbr_batch.closed_loop import Trace, run_closed_loop
 from twbr_batch.response import PITCH_BAND, StepResponse, settle_time, step_response
 from twbr_common.params import defaults
-from twbr_sim import dynamics as dyn
-from twbr_sim.robot_params import ROBOT_SPECS, robot_params
+from twbr_control.lqr import linear_models
+from twbr_sim.robot_params import ROBOT_SPECS
 
 VELOCITY_STEP = 0.1  # m/s, the paper's Figure 6
 YAW_RATE_STEP = 0.5  # rad/s
@@ -42,16 +42,7 @@ LQR_YAW_WEIGHTS = ("lqr.q_heading", "lqr.q_yaw_rate")
 def lqr_balance_gains(robot: Mapping[str, Any] | None = None, q: Sequence[float] = (300.0, 1.0, 1.0, 0.1),
                       r: float = 0.3) -> dict[str, float]:
     """Cascade gains equal to the LQR state feedback on (int v, v, pitch, pitch rate), per wheel torque."""
-    p = robot_params({**defaults(ROBOT_SPECS), **(robot or {})})
-
-    def f(z: np.ndarray, torque: float) -> np.ndarray:
-        acc = dyn.mechanical_accelerations(p, z[1], z[2], z[3], 0.0, torque, torque)
-        return np.array([z[1], acc[0], z[3], acc[1]])
-
-    eps = 1e-6
-    zero = np.zeros(4)
-    a = np.column_stack([(f(zero + eps * e, 0.0) - f(zero - eps * e, 0.0)) / (2 * eps) for e in np.eye(4)])
-    b = ((f(zero, eps) - f(zero, -eps)) / (2 * eps))[:, None]
+    a, b, _, _ = linear_models({**defaults(ROBOT_SPECS), **(robot or {})})
     rr = np.array([[r]])
     k = np.linalg.solve(rr, b.T @ scipy.linalg.solve_continuous_are(a, b, np.diag(q), rr))[0]
     k_int, k_v, k_pitch, k_rate = -k
