@@ -26,6 +26,13 @@ from twbr_sim.simulator import SIM_SPECS, Simulator, TractionTally
 
 # (velocity_ref, yaw_rate_ref) at sim time t, given the simulator (for planners that read the state).
 Reference = Callable[[float, Simulator], tuple[float, float]]
+# A robot from (robot parameters by name, simulator settings, scenario, seed): the ideal model by default,
+# or another physics engine behind the same interface (twbr_mujoco.physics.MujocoSimulator).
+SimulatorFactory = Callable[[dict, dict, "Scenario | None", int], Simulator]
+
+
+def ideal_simulator(robot: dict, settings: dict, scenario: Scenario | None, seed: int) -> Simulator:
+    return Simulator(robot_params(robot), settings, scenario, seed)
 
 
 @dataclass
@@ -62,14 +69,15 @@ def run_closed_loop(
     seed: int = 0,
     stop_on_fall: bool = True,
     stop: Callable[[Simulator], bool] | None = None,
+    engine: SimulatorFactory = ideal_simulator,
 ) -> Trace:
     """Run the cores for `duration` seconds of sim time, or until `stop(simulator)` (checked after each
     control step, as a simulator ending a run on its target would); settings default to the tables."""
     control_cfg = resolve_controller(control)
     sim_cfg = validate_all(SIM_SPECS, {**defaults(SIM_SPECS), **(sim or {})})
     sim_cfg["publish_rate"] = control_cfg["rate"]
-    simulator = Simulator(robot_params(validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **(robot or {})})),
-                          sim_cfg, scenario, seed)
+    simulator = engine(validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **(robot or {})}), sim_cfg, scenario,
+                       seed)
     controller = CascadeController(control_cfg)
     estimator = PitchEstimator(control_cfg)
     estimate = uses_estimator(control_cfg["pitch_source"], simulator.imu_model.raw)

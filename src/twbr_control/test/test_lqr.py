@@ -7,8 +7,8 @@ import scipy.signal
 from twbr_common.params import ConfigError, defaults
 from twbr_control.cascade import CascadeController
 from twbr_control.controller_params import CONTROL_SPECS, resolve
-from twbr_control.lqr import design, linear_models, robot_from_file
-from twbr_sim.robot_params import ROBOT_SPECS
+from twbr_control.lqr import design, linear_models
+from twbr_sim.robot_params import ROBOT_SPECS, robot_from_file
 
 LQR = {"controller": "lqr"}
 

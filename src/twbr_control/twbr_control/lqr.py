@@ -12,12 +12,11 @@ the differential torque. The integrals make the loops track v_ref and omega_ref 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from twbr_common.params import ConfigError, ParamSpec, defaults, validate_all
+from twbr_common.params import ConfigError, ParamSpec
 
 LQR_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("lqr.q_position", 454.9, "LQR weight on the integral of the speed error (the position lag)", "1/m²",
@@ -38,20 +37,6 @@ LQR_SPECS: tuple[ParamSpec, ...] = (
               " the installed config/robot.yaml"),
 )
 GAIN_NAMES = ("position", "velocity", "pitch", "pitch_rate", "heading", "yaw_rate")
-
-
-def robot_from_file(path: str) -> dict[str, Any]:
-    """The robot parameters of a robot.yaml (its sim_node section), validated; '' is the installed one."""
-    from twbr_common.param_files import node_parameters
-    from twbr_common.paths import config_dir
-    from twbr_sim.robot_params import ROBOT_SPECS
-
-    file = Path(path) if path else config_dir() / "robot.yaml"
-    if not file.is_file():
-        raise ConfigError(f"invalid parameter 'lqr.robot_file' = {path!r}: no such file")
-    known = {s.name for s in ROBOT_SPECS}
-    values = {k: v for k, v in node_parameters(file, "sim_node").items() if k in known}
-    return validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **values})
 
 
 def linear_models(robot: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -91,7 +76,9 @@ def design(settings: Mapping[str, Any], robot: Mapping[str, Any] | None = None) 
     The control law is u = -K z: common = -(k_position ∫e_v + k_velocity e_v + k_pitch (pitch - offset) +
     k_pitch_rate pitch_rate), differential = -(k_heading ∫e_w + k_yaw_rate e_w), e = measured - reference."""
     s = settings
-    robot = robot_from_file(s["lqr.robot_file"]) if robot is None else robot
+    from twbr_sim.robot_params import robot_from_file
+
+    robot = robot_from_file(s["lqr.robot_file"], "lqr.robot_file") if robot is None else robot
     a, b, a_yaw, b_yaw = linear_models(robot)
     period = 1.0 / s["rate"]
     k = _dlqr(a, b, np.diag([s["lqr.q_position"], s["lqr.q_velocity"], s["lqr.q_pitch"], s["lqr.q_pitch_rate"]]),

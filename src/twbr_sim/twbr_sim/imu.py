@@ -143,10 +143,29 @@ def _add_noise(out, first, count, std, g):
 @kernel
 def imu_sample(p, c, m, g, s, ds, out):
     """The reading published with state `s` (one call per published state, in order), into `out` (R_*)."""
+    slot = _ring_slot(c, m)
+    ideal_imu(p, s, ds, m[slot:slot + N_READING])
+    _report(c, m, g, out)
+
+
+@kernel
+def imu_sample_of(c, m, g, ideal, out):
+    """imu_sample for an ideal reading `ideal` (R_*) measured elsewhere (another physics engine's sensors)."""
+    slot = _ring_slot(c, m)
+    m[slot:slot + N_READING] = ideal
+    _report(c, m, g, out)
+
+
+@kernel
+def _ring_slot(c, m):
+    return M_RING + (int(m[M_SAMPLES]) % (int(c[I_DELAY]) + 1)) * N_READING
+
+
+@kernel
+def _report(c, m, g, out):
+    """The reading due now from the ring (the delay), with bias, its walk and noise; counts the sample."""
     delay = int(c[I_DELAY])
     n = int(m[M_SAMPLES])
-    slot = M_RING + (n % (delay + 1)) * N_READING
-    ideal_imu(p, s, ds, m[slot:slot + N_READING])
     # Before `delay` readings exist, the part reports its first one.
     old = M_RING + ((n - delay) % (delay + 1) if n >= delay else 0) * N_READING
     out[:] = m[old:old + N_READING]
@@ -179,6 +198,11 @@ class ImuModel:
     def read(self, p: np.ndarray, s: np.ndarray, ds: np.ndarray) -> ImuReading:
         """The next reading (each call is one more sample of the part)."""
         imu_sample(p, self.c, self.m, self.g, s, ds, self._out)
+        return ImuReading.of(self._out)
+
+    def read_ideal(self, ideal: np.ndarray) -> ImuReading:
+        """The next reading, from an ideal one (R_* layout) that another engine measured."""
+        imu_sample_of(self.c, self.m, self.g, ideal, self._out)
         return ImuReading.of(self._out)
 
 

@@ -9,13 +9,14 @@ evaluates the model four times per step, divides twice per evaluation instead of
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
-from twbr_common.params import ConfigError, ParamSpec, validate_all
+from twbr_common.params import ConfigError, ParamSpec, defaults, validate_all
 
 ROBOT_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("gravity", 9.81, "gravitational acceleration g", "m/s^2", 0.0, 100.0),
@@ -141,3 +142,17 @@ def wheel_torque_limit(p: np.ndarray) -> float:
 def top_wheel_speed(p: np.ndarray) -> float:
     """Wheel speed at which back-EMF equals the supply voltage: V_max / (N k) [rad/s]."""
     return float(p[P_VMAX] / (p[P_N] * p[P_KM]))
+
+
+def robot_from_file(path: str, parameter: str = "robot_file") -> dict[str, Any]:
+    """The robot parameters of a robot.yaml (its sim_node section), validated; '' is the installed one.
+    `parameter` names the parameter that gave the path, for the error."""
+    from twbr_common.param_files import node_parameters
+    from twbr_common.paths import config_dir
+
+    file = Path(path) if path else config_dir() / "robot.yaml"
+    if not file.is_file():
+        raise ConfigError(f"invalid parameter '{parameter}' = {path!r}: no such file")
+    known = {s.name for s in ROBOT_SPECS}
+    values = {k: v for k, v in node_parameters(file, "sim_node").items() if k in known}
+    return validate_all(ROBOT_SPECS, {**defaults(ROBOT_SPECS), **values})

@@ -40,7 +40,7 @@ from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
-from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
 from twbr_sim.stepping import LockstepExchange, Publications, RealtimeTicks, TimeoutAction
@@ -51,16 +51,23 @@ WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
 
 
 class SimNode(Node):
-    def __init__(self) -> None:
-        super().__init__("sim_node")
-        robot = robot_params(declare(self, ROBOT_SPECS))
-        cfg = declare(self, SIM_SPECS)
+    """The robot on the contract's topics. A driver on another physics engine subclasses it and replaces
+    `robot_parameters` and `new_simulator` (twbr_mujoco.mujoco_driver): the stepping, the messages and the
+    world are this class's."""
+
+    SPECS: tuple = SIM_SPECS
+    ENGINE = "ideal-model"
+
+    def __init__(self, node_name: str = "sim_node") -> None:
+        super().__init__(node_name)
+        cfg = declare(self, self.SPECS)
+        robot = self.robot_parameters(cfg)
         if self.get_parameter("use_sim_time").value:
-            raise ConfigError("invalid parameter 'use_sim_time' = True: sim_node is the clock; must be false")
+            raise ConfigError(f"invalid parameter 'use_sim_time' = True: {node_name} is the clock; must be false")
         scenario = load_scenario(find_scenario(cfg["scenario"])) if cfg["scenario"] else None
         seed = cfg["seed"] if cfg["seed"] >= 0 else (scenario.seed if scenario else 0)
         self.cfg = cfg
-        self.sim = Simulator(robot, cfg, scenario, seed)
+        self.sim = self.new_simulator(robot, cfg, scenario, seed)
         self.sim.warm_up()  # before any publisher: the first state goes out on time
         self.lockstep = cfg["mode"] == "lockstep"
         self._frame_odom = cfg["odom_frame"]
@@ -109,10 +116,16 @@ class SimNode(Node):
         self.publications = Publications(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"],
                                          cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"])
         self.get_logger().info(
-            f"{cfg['mode']} simulation at {cfg['physics_rate']:g} Hz, state every"
+            f"{cfg['mode']} {self.ENGINE} simulation at {cfg['physics_rate']:g} Hz, state every"
             f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
             f" seed {seed}"
         )
+
+    def robot_parameters(self, cfg: dict) -> dict:
+        return declare(self, ROBOT_SPECS)
+
+    def new_simulator(self, robot: dict, cfg: dict, scenario: Scenario | None, seed: int) -> Simulator:
+        return Simulator(robot_params(robot), cfg, scenario, seed)
 
     # --- inputs -------------------------------------------------------------------------------
     def _on_command(self, msg: WheelTorques) -> None:
