@@ -25,12 +25,14 @@ OTHER_SEEDS = (1, 2, 3, 4, 5)
 PITCH_LIMIT = 0.015  # rad after the first transient (the paper reports about +-0.01)
 
 
-def run(tmp_path, domain: int, scenario: str, seed: int | None, figures: bool) -> tuple[dict, object]:
+def run(tmp_path, domain: int, scenario: str, seed: int | None, figures: bool,
+        extra: tuple[str, ...] = ()) -> tuple[dict, object]:
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     args = [sys.executable, "-m", "twbr_runner.runner", scenario, "--out", str(tmp_path), "--domain", str(domain),
             "--quiet"]
     args += [] if seed is None else ["--seed", str(seed)]
     args += [] if figures else ["--no-figures"]
+    args += list(extra)
     done = subprocess.run(args, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     (run_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]
