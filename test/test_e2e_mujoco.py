@@ -4,11 +4,13 @@ unchanged (the runner's graph with `--driver mujoco`, and world_node beside it).
 from __future__ import annotations
 
 import pytest
-
 from test_e2e_driver import check_driver
 from test_e2e_navigation import SCENARIOS, assert_paper_outcome
 from test_e2e_navigation import run as run_scenario
+from test_e2e_parameters import _dump
+
 from twbr_msgs.msg import SimStatus, WorldStatus
+from twbr_runner.parameter_docs import NODE_PARAMETERS, RCLPY_PARAMETERS
 
 pytestmark = pytest.mark.e2e
 
@@ -62,3 +64,18 @@ def test_world_node_planner_and_controller_drive_mujoco_driver_to_a_target(launc
     assert ros.spin_until(lambda: any(s.target_reached for s in status), 90.0), world.output + driver.output
     assert not any(s.collision for s in status)
     assert sim and not any(s.fallen for s in sim)
+
+
+def test_param_dump_documents_what_mujoco_driver_declares(launch, ros):
+    launch("twbr_mujoco", "mujoco_driver", params=("mujoco_driver.yaml",))
+    dump = _dump(ros, "mujoco_driver")
+    assert dump["mode"] == "lockstep" and dump["mujoco.integrator"] == "implicitfast"
+    documented = {spec.name for spec in NODE_PARAMETERS["mujoco_driver"]}
+    assert set(dump) - set(RCLPY_PARAMETERS) == documented
+
+
+def test_a_bad_mujoco_parameter_is_refused_by_name(launch):
+    driver = launch("twbr_mujoco", "mujoco_driver", "-p", "mujoco.contact_time_constant:=0.0",
+                    params=("mujoco_driver.yaml",))
+    assert driver.wait(30.0) == 2
+    assert "invalid parameter 'mujoco.contact_time_constant' = 0.0" in driver.output

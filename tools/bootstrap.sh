@@ -41,6 +41,18 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 
+# Offscreen OpenGL for mujoco_driver's optional video (and its test): mesa's EGL. Installed where we may
+# (root with apt); elsewhere the video is skipped with a warning and its test says why.
+if ! ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa\.so'; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "bootstrap: installing mesa EGL (apt: libegl1 libegl-mesa0 libgl1-mesa-dri) for offscreen rendering"
+    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libegl1 libegl-mesa0 \
+        libgl1-mesa-dri; } >/dev/null 2>&1 || echo "bootstrap: apt-get failed: no offscreen video" >&2
+  else
+    echo "bootstrap: no mesa EGL and no apt as root: mujoco_driver's video is off here" >&2
+  fi
+fi
+
 . tools/env.sh
 mkdir -p log
 skip=()

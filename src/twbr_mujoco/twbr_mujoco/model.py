@@ -29,7 +29,9 @@ MUJOCO_SPECS: tuple[ParamSpec, ...] = (
               " reported slipping", "m/s", 0.0, 10.0, low_open=True),
     ParamSpec("mujoco.video", "", "render the run offscreen into this GIF when the node stops (needs an OpenGL"
               " backend: MUJOCO_GL=egl or osmesa); empty: no video"),
-    ParamSpec("mujoco.video_rate", 30.0, "frames per second of sim time in the video", "Hz", 1.0, 120.0),
+    ParamSpec("mujoco.video_rate", 4.0, "frames per second of sim time in the video", "Hz", 0.1, 120.0),
+    ParamSpec("mujoco.video_speed", 8.0, "playback speed of the video: sim seconds per second shown", "", 0.1,
+              100.0),
 )
 
 LEFT_WHEEL, RIGHT_WHEEL = "left_wheel", "right_wheel"

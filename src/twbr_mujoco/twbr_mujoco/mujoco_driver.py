@@ -31,8 +31,9 @@ class MujocoDriver(SimNode):
         if self.cfg["mujoco.video"]:
             from twbr_mujoco.video import Recording
 
-            self.recording = Recording(self.sim, self.cfg["mujoco.video"], self.cfg["mujoco.video_rate"],
-                                       self.get_logger())
+            cfg = self.cfg
+            self.recording = Recording(self.sim, cfg["mujoco.video"], cfg["mujoco.video_rate"],
+                                       cfg["mujoco.video_speed"], self.get_logger())
 
     def robot_parameters(self, cfg: dict) -> dict:
         return robot_from_file(cfg["robot_file"])

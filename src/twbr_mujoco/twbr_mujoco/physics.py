@@ -17,7 +17,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from twbr_common.params import defaults
+from twbr_common.params import ConfigError, defaults
 from twbr_mujoco.model import CHASSIS, LEFT_JOINT, LEFT_TYRE, LEFT_WHEEL, MUJOCO_SPECS, RIGHT_JOINT, RIGHT_TYRE, RIGHT_WHEEL, mjcf
 from twbr_mujoco.motor import advance_current
 from twbr_sim import dynamics as dyn
@@ -53,6 +53,11 @@ def quat_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:
 class MujocoSimulator(Simulator):
     def __init__(self, robot: Mapping[str, Any], settings: dict, scenario: Scenario | None, seed: int) -> None:
         super().__init__(robot_params(robot), settings, scenario, seed)
+        if settings["mujoco.contact_time_constant"] < 2.0 * self.h - 1e-12:
+            # MuJoCo would clamp it to two steps without a word: the contact would be softer than asked.
+            raise ConfigError(
+                f"invalid parameter 'mujoco.contact_time_constant' = {settings['mujoco.contact_time_constant']:g}:"
+                f" must be at least two physics steps, 2 / physics_rate = {2.0 * self.h:g} s")
         self.model = mujoco.MjModel.from_xml_string(mjcf(robot, settings, self.h))
         self.data = mujoco.MjData(self.model)
         m = self.model

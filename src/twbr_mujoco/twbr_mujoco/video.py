@@ -18,10 +18,11 @@ OBSTACLE_RGBA = np.array([0.8, 0.2, 0.2, 0.8], dtype=np.float32)
 
 
 class Recording:
-    def __init__(self, sim: Any, path: str, rate: float, logger: Any) -> None:
+    def __init__(self, sim: Any, path: str, rate: float, speed: float, logger: Any) -> None:
         self.sim = sim
         self.path = Path(path)
         self.period = 1.0 / rate
+        self.frame_ms = round(1000.0 * self.period / speed)
         self.next_frame = 0.0
         self.frames: list[np.ndarray] = []
         self.logger = logger
@@ -34,8 +35,8 @@ class Recording:
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
         self.camera.trackbodyid = sim.model.body(CHASSIS).id
-        self.camera.distance = 4.0
-        self.camera.elevation = -35.0
+        self.camera.distance = 6.0
+        self.camera.elevation = -45.0
         self.camera.azimuth = 135.0
 
     def capture(self) -> None:
@@ -70,6 +71,6 @@ class Recording:
 
         images = [Image.fromarray(f) for f in self.frames]
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        images[0].save(self.path, save_all=True, append_images=images[1:], duration=round(1000 * self.period),
+        images[0].save(self.path, save_all=True, append_images=images[1:], duration=self.frame_ms,
                        loop=0, optimize=True)
         self.logger.info(f"mujoco.video: {len(images)} frames to {self.path}")

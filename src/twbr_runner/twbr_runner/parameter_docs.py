@@ -15,6 +15,7 @@ from twbr_common.node_process import PROCESS_SPECS
 from twbr_common.params import ParamSpec, markdown_table
 from twbr_control.controller_params import CONTROL_SPECS
 from twbr_control.controller_params import NODE_SPECS as CONTROLLER_NODE_SPECS
+from twbr_mujoco.model import MUJOCO_SPECS
 from twbr_planner.planner_params import APF_SPECS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_sim.command_player import PLAYER_SPECS
@@ -49,7 +50,8 @@ rules, refused with the reason otherwise, applied between two steps, logged and 
 # (heading, specs, a note under the table or "")
 SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
     (
-        "Every node (`sim_node`, `world_node`, `controller_node`, `planner_node`, `command_player`, `torque_driver`)",
+        "Every node (`sim_node`, `world_node`, `controller_node`, `planner_node`, `command_player`, `torque_driver`,"
+        " `mujoco_driver`)",
         PROCESS_SPECS,
         "A CPU the process may not use (outside its `taskset` or container) is refused at start-up. Once built,\n"
         "every node also freezes its start-up heap (`gc.freeze`), so a full garbage collection in the loop walks\n"
@@ -62,6 +64,10 @@ SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
     ("`planner_node` (`config/planner.yaml`)", (*APF_SPECS, *PLANNER_NODE_SPECS, *INPUT_SPECS), ""),
     ("`command_player` (`config/command_player.yaml`)", PLAYER_SPECS, ""),
     ("`torque_driver`", DRIVER_SPECS, ""),
+    ("`mujoco_driver` (`config/mujoco_driver.yaml`)", MUJOCO_SPECS,
+     "Besides these, `mujoco_driver` declares every simulator parameter above (the robot's own come from\n"
+     "`robot_file`, not from parameters). `traction.friction` is there the friction coefficient of MuJoCo's\n"
+     "wheel-ground contact: it decides slip instead of only reporting it."),
 )
 
 
@@ -73,6 +79,7 @@ NODE_PARAMETERS: dict[str, tuple[ParamSpec, ...]] = {
     "planner_node": (*PROCESS_SPECS, *APF_SPECS, *PLANNER_NODE_SPECS, *INPUT_SPECS),
     "command_player": (*PROCESS_SPECS, *PLAYER_SPECS),
     "torque_driver": (*PROCESS_SPECS, *DRIVER_SPECS),
+    "mujoco_driver": (*PROCESS_SPECS, *SIM_SPECS, *MUJOCO_SPECS),
 }
 RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
 

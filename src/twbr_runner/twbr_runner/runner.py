@@ -90,6 +90,7 @@ class RunOptions:
     planner_method: str | None = None  # None: planner.yaml's
     sensors: str = "ideal"  # or "realistic": config/sensors_realistic.yaml over sim.yaml
     driver: str = "sim"  # or "mujoco": twbr_mujoco's mujoco_driver as the robot
+    video: Path | None = None  # mujoco: the GIF mujoco_driver renders
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -111,20 +112,25 @@ SENSORS = ("ideal", "realistic")
 DRIVERS = ("sim", "mujoco")
 
 
-def robot_node(driver: str, config: Path, sensors: str) -> tuple[str, str, list[str]]:
+def robot_node(driver: str, config: Path, sensors: str, video: Path | None = None) -> tuple[str, str, list[str]]:
     """(package, executable, parameter arguments) of the robot: sim_node, or mujoco_driver with its own file
     (robot.yaml's physics through its robot_file) and the realistic sensors' settings passed as `-p`."""
     realistic = ["sensors_realistic.yaml"] if sensors == "realistic" else []
     if driver == "sim":
+        if video is not None:
+            raise ConfigError("--video: only mujoco_driver renders (--driver mujoco)")
         return "twbr_sim", "sim_node", params_files(config, "robot.yaml", "sim.yaml", *realistic)
+    video_args = ["-p", f"mujoco.video:={video.resolve()}"] if video is not None else []
     overrides = [a for name in realistic for key, value in node_parameters(config / name, "sim_node").items()
                  for a in ("-p", f"{key}:={ros_value(value)}")]
     return "twbr_mujoco", "mujoco_driver", [*params_files(config, "mujoco_driver.yaml"),
-                                            "-p", f"robot_file:={config / 'robot.yaml'}", *overrides]
+                                            "-p", f"robot_file:={config / 'robot.yaml'}", *overrides,
+                                            *video_args]
 
 
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
-         planner_method: str | None = None, sensors: str = "ideal", driver: str = "sim") -> list[NodeSpec]:
+         planner_method: str | None = None, sensors: str = "ideal", driver: str = "sim",
+         video: Path | None = None) -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
@@ -151,7 +157,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     planner = scenario.target is not None
     planner_rate = node_parameters(config / "planner.yaml", "planner_node").get(
         "rate", default_of(PLANNER_NODE_SPECS, "rate")) if planner else 0.0
-    package, executable, robot_args = robot_node(driver, config, sensors)
+    package, executable, robot_args = robot_node(driver, config, sensors, video)
     nodes.append(NodeSpec("sim", package, executable, [
         *robot_args, "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
         "-p", "mode:=lockstep", "-p", f"wait_for_subscribers:={3 if planner else 2}",
@@ -310,7 +316,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
     nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method, opts.sensors,
-                 opts.driver)
+                 opts.driver, opts.video)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
@@ -464,11 +470,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--driver", choices=DRIVERS, default="sim",
                     help="the robot: sim (sim_node, the ideal model) or mujoco (mujoco_driver: MuJoCo multibody"
                          " physics with wheel-ground contact)")
+    ap.add_argument("--video", type=Path, help="with --driver mujoco: render the run into this GIF (offscreen"
+                                               " OpenGL: EGL or OSMesa)")
     ap.add_argument("--planner-method", choices=METHODS,
                     help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
-                      a.planner_method, a.sensors, a.driver)
+                      a.planner_method, a.sensors, a.driver, a.video)
     try:
         code, _ = run(opts)
     except ConfigError as e:
