@@ -127,7 +127,7 @@ def test_a_hard_turn_unloads_the_inner_wheel_where_the_ideal_model_keeps_both_do
 
 
 def test_on_ice_the_ideal_model_only_reports_slip_where_mujocos_robot_slips_and_falls():
-    """A 1 m/s step on mu = 0.03: the ramp asks about 5 N of the floor where it gives 4 N. The ideal model,
+    """A 1 m/s step on mu = 0.03 (mu N = 2 N per wheel): the speed ramp asks more. The ideal model,
     wheels glued, flags the slip and carries on to 1 m/s; in MuJoCo the tyres slide, the balance is lost."""
 
     def reference(t, _sim):
