@@ -49,3 +49,8 @@ if [ -f "$TWBR_ROOT/config/fastdds.xml" ]; then
 fi
 # Parameter and scenario files come from the checkout (edit them in place, no rebuild needed).
 export TWBR_CONFIG_DIR="${TWBR_CONFIG_DIR:-$TWBR_ROOT/config}"
+
+# MuJoCo picks its OpenGL backend at import: without a display, offscreen EGL (mujoco_driver's video).
+if [ -z "${DISPLAY:-}" ] && [ -z "${MUJOCO_GL:-}" ]; then
+  export MUJOCO_GL=egl
+fi
