@@ -57,6 +57,8 @@ def test_default_seed_reaches_the_target_and_draws_the_papers_figures(tmp_path, 
     assert_paper_outcome(m, scenario)
     for png in ("potential_field.png", "response.png", "velocity.png", "yaw_rate.png", "pitch.png"):
         assert (run_dir / png).stat().st_size > 20_000, png
+    (movie,) = run_dir.glob("animation.*")  # gif, or mp4 where ffmpeg is installed
+    assert movie.stat().st_size > 100_000
     assert set(m["pitch_by_mode"]) <= {"tracking", "avoiding", "following", "arrived", "stuck", "no_target"}
     # The planner's state in the bag agrees with the world's verdict at the end.
     planner = read_messages(run_dir / "bag", ["/planner_state"])["/planner_state"]

@@ -74,14 +74,14 @@ def response_figures(s: RunSeries, out_dir: Path, title: str) -> list[Path]:
     return written
 
 
-def _obstacles_at(s: RunSeries, t: float) -> list[tuple[int, float, float, float]]:
+def obstacles_at(s: RunSeries, t: float) -> list[tuple[int, float, float, float]]:
     if not s.obstacles:
         return []
     k = max(0, int(np.searchsorted([o[0] for o in s.obstacles], t, side="right")) - 1)
     return s.obstacles[k][1]
 
 
-def _target_at(s: RunSeries, t: float) -> tuple[float, float] | None:
+def target_at(s: RunSeries, t: float) -> tuple[float, float] | None:
     if len(s.target_t) == 0:
         return None
     k = max(0, int(np.searchsorted(s.target_t, t, side="right")) - 1)
@@ -96,8 +96,8 @@ def _field_panel(ax, s: RunSeries, t: float, params: dict, extent: tuple[float, 
     x0, x1, y0, y1 = extent
     xs, ys = np.linspace(x0, x1, 220), np.linspace(y0, y1, 220)
     grid = np.stack(np.meshgrid(xs, ys), axis=-1)
-    obstacles = _obstacles_at(s, t)
-    target = _target_at(s, t)
+    obstacles = obstacles_at(s, t)
+    target = target_at(s, t)
     u = potential(grid, np.array(target), Obstacles.of(obstacles), params)
     # The repulsion diverges at the surfaces: a log scale keeps the attractive bowl and the obstacles readable.
     filled = ax.contourf(xs, ys, np.log10(1.0 + u - u.min()), levels=40, cmap="viridis")
@@ -119,16 +119,26 @@ def _field_panel(ax, s: RunSeries, t: float, params: dict, extent: tuple[float, 
     return filled
 
 
-def potential_figures(s: RunSeries, out_dir: Path, title: str) -> list[Path]:
-    """The potential field U (eq. 24) with the robot's and the target's paths and the obstacles, as in the
-    paper's Figures 7, 9 and 11: one panel for a static world, four instants when anything moves."""
+def planner_gains(s: RunSeries) -> dict:
+    """The field's parameters as the planner reported them last (planner_state)."""
     last = s.planner[-1]
-    params = {name: getattr(last, name) for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance")}
+    return {name: getattr(last, name) for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance")}
+
+
+def field_extent(s: RunSeries) -> tuple[float, float, float, float]:
+    """(x0, x1, y0, y1) holding both paths and the obstacles at the start and the end, with a margin."""
     xs = [*s.x_c, *s.target_xy[:, 0]] + [o[1] + sign * o[3] for _, obs in s.obstacles[:1] + s.obstacles[-1:]
                                           for o in obs for sign in (-1, 1)]
     ys = [*s.y_c, *s.target_xy[:, 1]] + [o[2] + sign * o[3] for _, obs in s.obstacles[:1] + s.obstacles[-1:]
                                           for o in obs for sign in (-1, 1)]
-    extent = (min(xs) - 1.5, max(xs) + 1.5, min(ys) - 1.5, max(ys) + 1.5)
+    return min(xs) - 1.5, max(xs) + 1.5, min(ys) - 1.5, max(ys) + 1.5
+
+
+def potential_figures(s: RunSeries, out_dir: Path, title: str) -> list[Path]:
+    """The potential field U (eq. 24) with the robot's and the target's paths and the obstacles, as in the
+    paper's Figures 7, 9 and 11: one panel for a static world, four instants when anything moves."""
+    params = planner_gains(s)
+    extent = field_extent(s)
     moving = (len(s.target_xy) > 1 and np.ptp(s.target_xy, axis=0).max() > 1e-6) or (
         len(s.obstacles) > 1 and s.obstacles[0][1] != s.obstacles[-1][1])
     end = float(s.odom_t[-1])

@@ -34,6 +34,7 @@ from twbr_common.paths import config_dir
 from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
+from twbr_runner.animation import run_animation
 from twbr_runner.bag_reader import bag_info, read_messages
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, BagSummary, RunMetrics, compute_metrics, series_from_messages
@@ -412,6 +413,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
         figures = response_figures(series, run_dir, scenario.name)
         if series.planner:
             figures += potential_figures(series, run_dir, scenario.name)
+            figures.append(run_animation(series, run_dir, scenario.name))
     _say(opts, summary(metrics, run_dir, figures))
     return metrics
 
