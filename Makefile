@@ -24,7 +24,7 @@ e2e: setup
 	@$(RUN) python -m pytest -q -m "e2e and not long"
 
 demo: setup
-	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER))
+	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER)) $(if $(VIEW),--view)
 
 montecarlo: setup
 	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(CONTROLLER),--controller $(CONTROLLER))

@@ -23,6 +23,7 @@ from twbr_sim.robot_params import ROBOT_SPECS
 from twbr_sim.simulator import SIM_SPECS
 from twbr_sim.torque_driver import DRIVER_SPECS
 from twbr_sim.world_node import WORLD_SPECS
+from twbr_view.viewer_node import VIEWER_SPECS  # (twbr_view depends on twbr_runner: not declared back)
 
 INTRO = """\
 # twbr — parameters
@@ -51,7 +52,7 @@ rules, refused with the reason otherwise, applied between two steps, logged and 
 SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
     (
         "Every node (`sim_node`, `world_node`, `controller_node`, `planner_node`, `command_player`, `torque_driver`,"
-        " `mujoco_driver`)",
+        " `mujoco_driver`, `viewer`)",
         PROCESS_SPECS,
         "A CPU the process may not use (outside its `taskset` or container) is refused at start-up. Once built,\n"
         "every node also freezes its start-up heap (`gc.freeze`), so a full garbage collection in the loop walks\n"
@@ -68,6 +69,8 @@ SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
      "Besides these, `mujoco_driver` declares every simulator parameter above (the robot's own come from\n"
      "`robot_file`, not from parameters). `traction.friction` is there the friction coefficient of MuJoCo's\n"
      "wheel-ground contact: it decides slip instead of only reporting it."),
+    ("`viewer` (package `twbr_view`)", VIEWER_SPECS,
+     "Both servers listen on 127.0.0.1 only. Ports 0 pick free ones; the node prints the URL to open."),
 )
 
 
@@ -80,6 +83,7 @@ NODE_PARAMETERS: dict[str, tuple[ParamSpec, ...]] = {
     "command_player": (*PROCESS_SPECS, *PLAYER_SPECS),
     "torque_driver": (*PROCESS_SPECS, *DRIVER_SPECS),
     "mujoco_driver": (*PROCESS_SPECS, *SIM_SPECS, *MUJOCO_SPECS),
+    "viewer": (*PROCESS_SPECS, *VIEWER_SPECS),
 }
 RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
 

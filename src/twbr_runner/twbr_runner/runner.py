@@ -92,6 +92,7 @@ class RunOptions:
     sensors: str = "ideal"  # or "realistic": config/sensors_realistic.yaml over sim.yaml
     driver: str = "sim"  # or "mujoco": twbr_mujoco's mujoco_driver as the robot
     video: Path | None = None  # mujoco: the GIF mujoco_driver renders
+    view_port: int | None = None  # the live viewer's web port (twbr_view), None: no viewer
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -131,7 +132,7 @@ def robot_node(driver: str, config: Path, sensors: str, video: Path | None = Non
 
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
          planner_method: str | None = None, sensors: str = "ideal", driver: str = "sim",
-         video: Path | None = None) -> list[NodeSpec]:
+         video: Path | None = None, view_port: int | None = None) -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
@@ -141,6 +142,10 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         NodeSpec("controller", "twbr_control", "controller_node", params_files(config, "controller.yaml"),
                  recorded=("/wheel_torque_cmd", "/controller_state")),
     ]
+    if view_port is not None:
+        # Not in the lockstep (best-effort, depth 1) and niced: it draws what it can and never holds the run.
+        nodes.insert(1, NodeSpec("viewer", "twbr_view", "viewer", ["-p", f"web_port:={view_port}",
+                                                                    "-p", "grpc_port:=0"], niceness=10))
     if scenario.target is not None:
         # what the scenario pins (the paper's scenarios: its method), under --planner-method
         pinned = {**dict(scenario.planner), **({"method": planner_method} if planner_method else {})}
@@ -161,7 +166,8 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     package, executable, robot_args = robot_node(driver, config, sensors, video)
     nodes.append(NodeSpec("sim", package, executable, [
         *robot_args, "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
-        "-p", "mode:=lockstep", "-p", f"wait_for_subscribers:={3 if planner else 2}",
+        "-p", "mode:=lockstep",
+        "-p", f"wait_for_subscribers:={(3 if planner else 2) + (view_port is not None)}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",
     ]))
     return nodes
@@ -317,7 +323,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
     nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method, opts.sensors,
-                 opts.driver, opts.video)
+                 opts.driver, opts.video, opts.view_port)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
@@ -343,6 +349,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                                            spec.args, spec.niceness)
             if spec.label == "recorder":
                 progress.wait_for_recorder(procs["recorder"], [], 20.0)
+            if spec.label == "viewer":
+                _say(opts, f"  viewer: {viewer_url(procs['viewer'], 30.0)}")
         sim = procs["sim"]
         tty = sys.stdout.isatty()
         last_print = time.monotonic()
@@ -350,7 +358,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             progress.spin(0.1)
             now = time.monotonic()
             for label, proc in procs.items():
-                if label != "sim" and not proc.running:
+                if label not in ("sim", "viewer") and not proc.running:
                     raise RuntimeError(f"{label} exited with code {proc.proc.returncode}:\n{_tail(proc.output)}")
             if now - last_print >= (1.0 if tty else 10.0):
                 last_print = now
@@ -452,6 +460,19 @@ def summary(metrics: RunMetrics, run_dir: Path, figures: list[Path]) -> str:
     return "\n".join(lines)
 
 
+def viewer_url(viewer: NodeProcess, timeout: float) -> str:
+    """The URL the viewer prints once it serves, or why there is none (the run goes on without it)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        for line in viewer.output.splitlines():
+            if "open http" in line:
+                return line.split("open ", 1)[1].split(" ", 1)[0]
+        if not viewer.running:
+            return f"exited with code {viewer.proc.returncode}, the run goes on without it: {_tail(viewer.output, 3)}"
+        time.sleep(0.1)
+    return "no URL yet (see logs/viewer.err)"
+
+
 def _tail(text: str, lines: int = 15) -> str:
     return "\n".join(text.strip().splitlines()[-lines:])
 
@@ -474,11 +495,13 @@ def main(argv: list[str] | None = None) -> int:
                          " physics with wheel-ground contact)")
     ap.add_argument("--video", type=Path, help="with --driver mujoco: render the run into this GIF (offscreen"
                                                " OpenGL: EGL or OSMesa)")
+    ap.add_argument("--view", nargs="?", type=int, const=9090, metavar="PORT",
+                    help="show the run live in the browser (twbr_view's viewer; web port, default 9090)")
     ap.add_argument("--planner-method", choices=METHODS,
                     help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
-                      a.planner_method, a.sensors, a.driver, a.video)
+                      a.planner_method, a.sensors, a.driver, a.video, a.view)
     try:
         code, _ = run(opts)
     except ConfigError as e:

@@ -1,0 +1,44 @@
+"""The live viewer beside a real graph (the runner's --view), and the same run replayed from its bag."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import urllib.request
+
+import pytest
+
+pytest.importorskip("rerun", reason="rerun-sdk is not installed (the viewer is optional)")
+
+pytestmark = pytest.mark.e2e
+
+
+def test_the_runner_serves_the_run_live_and_view_bag_replays_it(tmp_path, ros_domain):
+    env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+           "TWBR_RERUN_CONFIG": str(tmp_path / "rerun-config")}
+    runner = subprocess.Popen([sys.executable, "-m", "twbr_runner.runner", "static", "--view", "0", "--out",
+                               str(tmp_path / "runs"), "--domain", str(ros_domain), "--no-figures"],
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    page = ""
+    for line in runner.stdout:
+        lines.append(line)
+        if "viewer: http://127.0.0.1:" in line and not page:
+            url = line.split("viewer: ", 1)[1].strip()
+            page = urllib.request.urlopen(url.split("?")[0], timeout=10).read().decode()
+    assert runner.wait(300) == 0, "".join(lines)
+    assert "Rerun" in page and "re_viewer" in page  # the web viewer's page, served on loopback
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    log = (run_dir / "logs" / "viewer.err").read_text()
+    counts = dict(re.findall(r"([\w/]+) (\d+)", log.split("entities on", 1)[1]))
+    # Live: the map and the plots were drawn through the whole run (45.85 s: 917 states at 20 Hz at least).
+    assert int(counts["map/robot"]) > 900 and int(counts["map/field"]) >= 20
+    assert int(counts["plots/speed/reference"]) > 900
+    done = subprocess.run([sys.executable, "-m", "twbr_view.view_bag", str(run_dir)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (run_dir / "view.rrd").stat().st_size > 1_000_000
+    logged = int(re.search(r"(\d+) entities logged", done.stdout).group(1))
+    assert logged > sum(int(n) for n in counts.values())  # the bag has every message; the live view drops
