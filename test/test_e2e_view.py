@@ -6,9 +6,13 @@ import os
 import re
 import subprocess
 import sys
+import time
 import urllib.request
 
+import numpy as np
 import pytest
+from browser import chromium, screenshot
+from PIL import Image
 
 pytest.importorskip("rerun", reason="rerun-sdk is not installed (the viewer is optional)")
 
@@ -42,3 +46,26 @@ def test_the_runner_serves_the_run_live_and_view_bag_replays_it(tmp_path, ros_do
     assert (run_dir / "view.rrd").stat().st_size > 1_000_000
     logged = int(re.search(r"(\d+) entities logged", done.stdout).group(1))
     assert logged > sum(int(n) for n in counts.values())  # the bag has every message; the live view drops
+
+
+@pytest.mark.skipif(chromium() is None, reason="no chromium: the set-up installs Debian's `chromium` with apt as"
+                    " root; on this machine it could not")
+def test_the_served_page_draws_the_map_in_a_browser(launch, tmp_path, monkeypatch):
+    """Headless Chromium (software WebGL) opens the live viewer while the static scenario runs: the map panel
+    shows the potential field's colours, not a blank canvas."""
+    monkeypatch.setenv("TWBR_RERUN_CONFIG", str(tmp_path / "rerun-config"))
+    viewer = launch("twbr_view", "viewer", "-p", "web_port:=0", "-p", "grpc_port:=0")
+    deadline = time.monotonic() + 30.0
+    while "open http" not in viewer.output:
+        assert time.monotonic() < deadline and viewer.running, viewer.output
+        time.sleep(0.2)
+    url = viewer.output.split("open ", 1)[1].split(" ", 1)[0]
+    launch("twbr_control", "controller_node", params=("controller.yaml",))
+    launch("twbr_planner", "planner_node", "-p", "method:=paper", params=("planner.yaml",))
+    launch("twbr_sim", "sim_node", "-p", "scenario:=static", "-p", "wait_for_subscribers:=3",
+           "-p", "lockstep_planner_rate:=20.0", params=("robot.yaml", "sim.yaml"))
+    shot = np.asarray(Image.open(screenshot(url, tmp_path / "viewer.png", wait_s=25.0)).convert("RGB")).astype(int)
+    height, width, _ = shot.shape
+    map_panel = shot[int(0.1 * height):int(0.65 * height), : int(0.6 * width)]  # the blueprint's left column
+    coloured = (map_panel.max(axis=2) - map_panel.min(axis=2)) > 60  # the field's viridis, the paths, the arrows
+    assert coloured.mean() > 0.05, f"the map panel is {100 * coloured.mean():.2f} % coloured: blank?"

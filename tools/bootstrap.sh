@@ -41,15 +41,20 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 
-# Offscreen OpenGL for mujoco_driver's optional video (and its test): mesa's EGL. Installed where we may
-# (root with apt); elsewhere the video is skipped with a warning and its test says why.
-if ! ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa\.so'; then
+# System packages the optional pictures need, installed where we may (root with apt); elsewhere those
+# features are off with a warning and their tests say why they skip:
+# - mesa's EGL: offscreen OpenGL for mujoco_driver's video;
+# - chromium: the headless browser of the viewer's screenshot test (test/test_e2e_view.py).
+apt_wanted=()
+ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa\.so' || apt_wanted+=(libegl1 libegl-mesa0 libgl1-mesa-dri)
+command -v chromium >/dev/null 2>&1 || apt_wanted+=(chromium)
+if [ "${#apt_wanted[@]}" -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
-    echo "bootstrap: installing mesa EGL (apt: libegl1 libegl-mesa0 libgl1-mesa-dri) for offscreen rendering"
-    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libegl1 libegl-mesa0 \
-        libgl1-mesa-dri; } >/dev/null 2>&1 || echo "bootstrap: apt-get failed: no offscreen video" >&2
+    echo "bootstrap: installing with apt: ${apt_wanted[*]}"
+    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${apt_wanted[@]}"; } \
+      >/dev/null 2>&1 || echo "bootstrap: apt-get failed: no offscreen video / browser test" >&2
   else
-    echo "bootstrap: no mesa EGL and no apt as root: mujoco_driver's video is off here" >&2
+    echo "bootstrap: missing ${apt_wanted[*]} and no apt as root: the video and the browser test are off" >&2
   fi
 fi
 

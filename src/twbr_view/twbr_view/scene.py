@@ -216,3 +216,21 @@ VIEWED_TOPICS = {
     "controller_state": "twbr_msgs/msg/ControllerState",
     "joint_states": "sensor_msgs/msg/JointState",
 }
+
+
+def blueprint():
+    """The layout: the map on the left (two thirds), the planner's mode and the plots on the right."""
+    import rerun.blueprint as rrb
+
+    plots = [rrb.TimeSeriesView(origin=f"/plots/{name}", name=title) for name, title in (
+        ("speed", "v, v_ref [m/s]"), ("yaw_rate", "omega, omega_ref [rad/s]"), ("pitch", "pitch, pitch_ref [rad]"),
+        ("torque", "wheel torques [N·m]"), ("distance", "clearance, distance to target [m]"))]
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(rrb.Spatial3DView(origin="/map", name="map (x, y in m)"),
+                         rrb.TextDocumentView(origin="/planner/mode", name="planner mode"), row_shares=[6, 1]),
+            rrb.Vertical(*plots),
+            column_shares=[2, 1],
+        ),
+        collapse_panels=True,
+    )

@@ -12,7 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from twbr_view.scene import VIEWED_TOPICS, RunView, feed, stamp_of
+from twbr_view.scene import VIEWED_TOPICS, RunView, blueprint, feed, stamp_of
 from twbr_view.server import ViewerServer, prepare
 
 
@@ -28,7 +28,7 @@ def write_rrd(bag_dir: Path, out: Path) -> RunView:
     from twbr_runner.bag_reader import read_messages
 
     rec = rr.RecordingStream("twbr", recording_id=str(bag_dir.resolve()))
-    rec.save(str(out))
+    rec.save(str(out), default_blueprint=blueprint())
     view = RunView(rec.log, lambda t: rec.set_time("sim_time", duration=t))
     messages = read_messages(bag_dir, [f"/{t}" for t in VIEWED_TOPICS])
     merged = sorted((received, topic, i) for topic, rows in messages.items() for i, (received, _m) in enumerate(rows))

@@ -15,7 +15,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_common.params import ParamSpec
 from twbr_common.ros_params import declare, run_node
-from twbr_view.scene import VIEWED_TOPICS, RunView, feed
+from twbr_view.scene import VIEWED_TOPICS, RunView, blueprint, feed
 from twbr_view.server import ViewerServer, prepare
 
 VIEWER_SPECS: tuple[ParamSpec, ...] = (
@@ -45,7 +45,7 @@ class Viewer(Node):
 
         self.server = ViewerServer(cfg["web_port"], cfg["grpc_port"], cfg["memory_limit"])
         self.rec = rr.RecordingStream("twbr")
-        self.rec.connect_grpc(self.server.grpc_url)
+        self.rec.connect_grpc(self.server.grpc_url, default_blueprint=blueprint())
         self.view = RunView(self.rec.log, lambda t: self.rec.set_time("sim_time", duration=t),
                             field_period=cfg["field_period"], series_period=1.0 / cfg["series_rate"])
         for topic, kind in VIEWED_TOPICS.items():
