@@ -423,6 +423,8 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
             figures += potential_figures(series, run_dir, scenario.name)
             figures.append(run_animation(series, run_dir, scenario.name))
     _say(opts, summary(metrics, run_dir, figures))
+    if opts.view_port is not None:
+        _say(opts, f"  the viewer stopped with the run; replay it: ros2 run twbr_view view_bag {run_dir} --serve")
     return metrics
 
 

@@ -8,10 +8,10 @@ off is given to the child and to this process before rerun is imported (`prepare
 
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -30,10 +30,26 @@ def prepare() -> dict[str, str]:
     env = {**os.environ, "XDG_CONFIG_HOME": str(home)}
     if not settings.is_file():
         home.mkdir(parents=True, exist_ok=True)
-        subprocess.run([sys.executable, "-m", "rerun_cli", "analytics", "disable"], env=env, check=True,
+        subprocess.run([rerun_executable(), "analytics", "disable"], env=env, check=True,
                        capture_output=True, timeout=60)
     os.environ["XDG_CONFIG_HOME"] = str(home)
     return env
+
+
+def rerun_executable() -> str:
+    """The wheel's `rerun` binary itself (`python -m rerun_cli` is a wrapper whose child would outlive it)."""
+    import rerun_cli
+
+    return str(Path(rerun_cli.__file__).with_name("rerun"))
+
+
+def _die_with_parent() -> None:
+    """In the child: SIGTERM when the node's process dies, however it dies (Linux prctl PR_SET_PDEATHSIG)."""
+    import ctypes
+    import signal
+
+    with contextlib.suppress(OSError):
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)
 
 
 def free_port() -> int:
@@ -45,20 +61,18 @@ def free_port() -> int:
 class ViewerServer:
     """`rerun --serve-web` on loopback: the web viewer at `url`, the SDK's proxy at `grpc_url`."""
 
-    def __init__(self, web_port: int = 0, grpc_port: int = 0, memory_limit: str = "25%",
-                 files: tuple[Path, ...] = ()) -> None:
+    def __init__(self, web_port: int = 0, grpc_port: int = 0, memory_limit: str = "25%") -> None:
         env = prepare()
         self.web_port = web_port or free_port()
         self.grpc_port = grpc_port or free_port()
         self.grpc_url = f"rerun+http://{BIND}:{self.grpc_port}/proxy"
         self.url = f"http://{BIND}:{self.web_port}/?url={self.grpc_url.replace('+', '%2B')}"
-        cmd = [sys.executable, "-m", "rerun_cli", "--serve-web", "--bind", BIND, "--port", str(self.grpc_port),
-               "--web-viewer-port", str(self.web_port), "--server-memory-limit", memory_limit,
-               *(str(f) for f in files)]
+        cmd = [rerun_executable(), "--serve-web", "--bind", BIND, "--port", str(self.grpc_port),
+               "--web-viewer-port", str(self.web_port), "--server-memory-limit", memory_limit]
         # A session of its own: Ctrl-C on the node's terminal must not kill it before the node's last flush.
         self._log = tempfile.TemporaryFile()  # noqa: SIM115 (lives with the child; not a pipe: nobody reads it)
         self.proc = subprocess.Popen(cmd, env=env, stdout=self._log, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
+                                     start_new_session=True, preexec_fn=_die_with_parent)
         self._wait_listening()
 
     def _wait_listening(self, timeout: float = 30.0) -> None:

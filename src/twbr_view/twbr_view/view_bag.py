@@ -20,15 +20,17 @@ def bag_dir_of(path: Path) -> Path:
     return path / "bag" if (path / "bag").is_dir() else path
 
 
-def write_rrd(bag_dir: Path, out: Path) -> RunView:
-    """Every viewed message of the bag, in recording order, through RunView into `out`."""
+def write_rrd(bag_dir: Path, out: Path, grpc_url: str | None = None) -> RunView:
+    """Every viewed message of the bag, in recording order, through RunView into `out` (and to a viewer's
+    proxy at `grpc_url`, which keeps it for the browsers that connect later)."""
     prepare()
     import rerun as rr
 
     from twbr_runner.bag_reader import read_messages
 
     rec = rr.RecordingStream("twbr", recording_id=str(bag_dir.resolve()))
-    rec.save(str(out), default_blueprint=blueprint())
+    sinks = [rr.FileSink(str(out))] + ([rr.GrpcSink(grpc_url)] if grpc_url else [])
+    rec.set_sinks(*sinks, default_blueprint=blueprint())
     view = RunView(rec.log, lambda t: rec.set_time("sim_time", duration=t))
     messages = read_messages(bag_dir, [f"/{t}" for t in VIEWED_TOPICS])
     merged = sorted((received, topic, i) for topic, rows in messages.items() for i, (received, _m) in enumerate(rows))
@@ -52,11 +54,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"view_bag: no bag at {bag}", file=sys.stderr)
         return 2
     out = a.out or (a.run if a.run != bag else bag.parent) / "view.rrd"
-    view = write_rrd(bag, out)
+    server = ViewerServer() if a.serve else None
+    view = write_rrd(bag, out, server.grpc_url if server else None)
     print(f"view_bag: {sum(view.logged.values())} entities logged from {bag} -> {out}")
-    if a.serve:
-        server = ViewerServer(files=(out,))
-        print(f"view_bag: open {server.url.split('?')[0]} (Ctrl-C stops)", flush=True)
+    if server is not None:
+        print(f"view_bag: open {server.url} (Ctrl-C stops)", flush=True)
         try:
             while server.proc.poll() is None:
                 time.sleep(0.5)
