@@ -37,8 +37,8 @@ def test_the_runner_serves_the_run_live_and_view_bag_replays_it(tmp_path, ros_do
     (run_dir,) = (tmp_path / "runs").iterdir()
     log = (run_dir / "logs" / "viewer.err").read_text()
     counts = dict(re.findall(r"([\w/]+) (\d+)", log.split("entities on", 1)[1]))
-    # Live: the map and the plots were drawn through the whole run (45.85 s: 917 states at 20 Hz at least).
-    assert int(counts["map/robot"]) > 900 and int(counts["map/field"]) >= 20
+    # Live: the map and the plots were drawn through the whole run (45.85 s: the pose at up to 30 Hz).
+    assert int(counts["map/robot"]) > 500 and int(counts["map/field"]) >= 20
     assert int(counts["plots/speed/reference"]) > 900
     done = subprocess.run([sys.executable, "-m", "twbr_view.view_bag", str(run_dir)], env=env, capture_output=True,
                           text=True, timeout=300)

@@ -45,7 +45,8 @@ def _colormap(values: np.ndarray) -> np.ndarray:
 
 class RunView:
     def __init__(self, log: Callable[[str, Any], None], set_time: Callable[[float], None],
-                 field_period: float = 1.0, series_period: float = 0.02, path_spacing: float = 0.05) -> None:
+                 field_period: float = 1.0, series_period: float = 0.02, path_spacing: float = 0.05,
+                 pose_period: float = 1.0 / 30.0) -> None:
         import rerun as rr
 
         self.rr = rr
@@ -54,6 +55,7 @@ class RunView:
         self.field_period = field_period
         self.series_period = series_period
         self.path_spacing = path_spacing
+        self.pose_period = pose_period
         self.robot_xy: tuple[float, float] | None = None
         self.target_xy: tuple[float, float] | None = None
         self.obstacles: list[tuple[int, float, float, float, float, float]] = []
@@ -68,10 +70,10 @@ class RunView:
         self.logged[path] = self.logged.get(path, 0) + 1
         self._log(path, archetype)
 
-    def _series_due(self, name: str, t: float) -> bool:
+    def _series_due(self, name: str, t: float, period: float | None = None) -> bool:
         if t + 1e-9 < self._next_series.get(name, -math.inf):
             return False
-        self._next_series[name] = t + self.series_period
+        self._next_series[name] = t + (self.series_period if period is None else period)
         return True
 
     @staticmethod
@@ -83,9 +85,11 @@ class RunView:
 
     # --- the map -----------------------------------------------------------------------------------
     def odom(self, t: float, x: float, y: float, yaw: float) -> None:
+        self.robot_xy = (x, y)
+        if not self._series_due("pose", t, self.pose_period):  # a screen shows ~30 frames a second
+            return
         rr = self.rr
         self._set_time(t)
-        self.robot_xy = (x, y)
         self.log("map/robot", rr.Points3D([[x, y, 0.1]], radii=[0.12], colors=[ROBOT_RGB]))
         self.log("map/robot/heading", rr.Arrows3D(origins=[[x, y, 0.1]],
                                                   vectors=[[0.6 * math.cos(yaw), 0.6 * math.sin(yaw), 0.0]],

@@ -22,6 +22,7 @@ VIEWER_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("web_port", 9090, "port of the web viewer on 127.0.0.1; 0: a free one", "", 0, 65535),
     ParamSpec("grpc_port", 9876, "port of Rerun's gRPC proxy on 127.0.0.1; 0: a free one", "", 0, 65535),
     ParamSpec("field_period", 1.0, "how often the potential field under the map is redrawn", "s", 0.1, 60.0),
+    ParamSpec("map_rate", 30.0, "highest rate of the robot's pose on the map", "Hz", 1.0, 1000.0),
     ParamSpec("series_rate", 50.0, "highest rate of each time series drawn (controller_state comes at 200 Hz)",
               "Hz", 1.0, 1000.0),
     ParamSpec("memory_limit", "25%", "what the web viewer's server may hold for late browsers (Rerun's"
@@ -47,7 +48,8 @@ class Viewer(Node):
         self.rec = rr.RecordingStream("twbr")
         self.rec.connect_grpc(self.server.grpc_url, default_blueprint=blueprint())
         self.view = RunView(self.rec.log, lambda t: self.rec.set_time("sim_time", duration=t),
-                            field_period=cfg["field_period"], series_period=1.0 / cfg["series_rate"])
+                            field_period=cfg["field_period"], series_period=1.0 / cfg["series_rate"],
+                            pose_period=1.0 / cfg["map_rate"])
         for topic, kind in VIEWED_TOPICS.items():
             self.create_subscription(message_type(kind), topic, lambda msg, topic=topic: feed(self.view, topic, msg),
                                      LATEST_ONLY)
