@@ -39,10 +39,12 @@ def test_a_runner_killed_with_sigkill_leaves_no_node_behind_and_a_closed_bag(tmp
                                "--quiet", "--no-figures"], env=ros_env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not list(tmp_path.glob("*/logs/sim.err")):
+        # Driving, not just started: the recorder has flushed its first chunks (a loaded machine may take
+        # seconds to bring the graph up, so a fixed sleep is not enough).
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline and not any(
+                f.stat().st_size > 2_000_000 for f in tmp_path.glob("*/bag/*.mcap")):
             time.sleep(0.1)
-        time.sleep(2.0)  # driving
         nodes = _children(runner.pid)
     finally:
         runner.kill()  # also when the wait above fails: its nodes go with it
