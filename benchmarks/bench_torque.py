@@ -1,12 +1,14 @@
 """Torque smoothness: what the motors get in the paper's dynamic-obstacle run, before and after the
-controller shapes its references (reference_rate.*), and the 0.1 m/s step's roll-back.
+controller shapes its references, and the 0.1 m/s step's roll-back.
 
 Figures per wheel: the largest sample-to-sample change of the commanded torque [N·m] and the torque's power
 above 10 Hz [(N·m)^2, the mean square of the part of the signal above 10 Hz]. "before" is the controller with
-the reference rate limits off and the gains of config/controller.yaml before issue 17 (set below); "shipped" is
-today's defaults (v_ref rate-limited, omega_ref not); "yaw ramp" also limits omega_ref's rate to the planner's
-own max_yaw_acceleration (AFTER), which spreads each of its 20 Hz command steps over a period. Runs are the headless
-closed loop of the nodes' cores (planner included, paper's method as the scenario pins): exactly reproducible.
+the reference shaping off and the gains of config/controller.yaml before issue 17 (set below); "held" is today's
+controller with each 20 Hz command of omega held as it comes (reference_hold.yaw_rate 0); "shipped" is today's
+defaults (v_ref rate-limited, omega_ref continued along the planner's slope between its commands); "yaw ramp"
+instead limits omega_ref's rate to the planner's own max_yaw_acceleration, which spreads each command step
+over a period (and lags the planner by it). Runs are the headless closed loop of the nodes' cores (planner
+included, paper's method as the scenario pins): exactly reproducible.
 
     tools/run.sh python benchmarks/bench_torque.py
 """
@@ -25,12 +27,13 @@ from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
 BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
-    "reference_rate.velocity": 0.0, "reference_rate.yaw_rate": 0.0,
+    "reference_rate.velocity": 0.0, "reference_rate.yaw_rate": 0.0, "reference_hold.yaw_rate": 0.0,
     "velocity.kp": 0.4529, "velocity.ki": 0.6938, "velocity.kd": 0.0, "velocity.setpoint_weight": 0.494,
     "velocity.derivative_filter": 0.02, "pitch.kp": 42.52, "pitch.ki": 0.0, "pitch.kd": 8.793,
     "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293,
 }
-AFTER = {"reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration (not the default: docs/nodes.md)
+HELD = {"reference_hold.yaw_rate": 0.0}
+RAMP = {"reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
 CUTOFF_HZ = 10.0
 
 
@@ -62,7 +65,8 @@ def torque_figures(control: dict) -> dict:
 
 
 def main() -> int:
-    rows = {"before": torque_figures(BEFORE), "shipped": torque_figures({}), "yaw ramp": torque_figures(AFTER)}
+    rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "shipped": torque_figures({}),
+            "yaw ramp": torque_figures(RAMP)}
     print(f"{'':8} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'step roll-back %':>17}"
           f" {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
     for name, r in rows.items():

@@ -247,6 +247,9 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     w_ref = 0.0
     next_v = 0.0
     next_w = 0.0
+    command_stamp = 0.0  # the sample from which the references in effect apply (a new plan's: the one after it)
+    new_plan = False
+    commanded = not has_target  # a planner's first command applies from the second sample: none before it
     reached_at = math.nan
     min_clearance = math.inf
     pitch_min = math.inf
@@ -319,6 +322,7 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                           positions, obstacle_velocity, radii, distances)
                 next_v = plan_out[Q_V]
                 next_w = plan_out[Q_OMEGA]
+                new_plan = True
                 stuck_at_end = plan_out[Q_MODE] == STUCK
                 if stuck_at_end:
                     stuck_steps += 1
@@ -335,8 +339,10 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
                     detected[j] = inside
         else:
             v_ref, w_ref = command_profile_at(cmd_times, cmd_speeds, cmd_yaw_rates, t)
+            command_stamp = t  # a command profile: a command at every sample
         hold = estimate and estimator_m[E_CALIBRATING] != 0.0
-        cascade_compute(c, control, control_out, t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate, False, hold)
+        cascade_compute(c, control, control_out, t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
+                        not commanded, hold, command_stamp)
         true_pitch = state[S_TH]
         pitch_min = min(pitch_min, true_pitch)
         pitch_max = max(pitch_max, true_pitch)
@@ -359,6 +365,10 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
         if has_target:  # the controller takes a cmd_vel from the first state stamped after it
             v_ref = next_v
             w_ref = next_w
+            if new_plan:
+                command_stamp = (step_count + steps_per_control) * h
+                new_plan = False
+                commanded = True
         if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
             break
         left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit

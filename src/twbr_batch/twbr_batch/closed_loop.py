@@ -24,8 +24,9 @@ from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
 from twbr_sim.simulator import SIM_SPECS, Simulator, TractionTally
 
-# (velocity_ref, yaw_rate_ref) at sim time t, given the simulator (for planners that read the state).
-Reference = Callable[[float, Simulator], tuple[float, float]]
+# (velocity_ref, yaw_rate_ref) at sim time t, given the simulator (for planners that read the state); a planner
+# adds the sample its command applies from (the cascade's command_stamp), else every sample is a new command.
+Reference = Callable[[float, Simulator], tuple[float, ...]]
 # A robot from (robot parameters by name, simulator settings, scenario, seed): the ideal model by default,
 # or another physics engine behind the same interface (twbr_mujoco.physics.MujocoSimulator).
 SimulatorFactory = Callable[[dict, dict, "Scenario | None", int], Simulator]
@@ -95,9 +96,11 @@ def run_closed_loop(
             pitch, pitch_rate = estimator.update(t, pitch_rate, reading.linear_acceleration[0],
                                                  reading.linear_acceleration[2], velocity)
             velocity = estimator.velocity
-        v_ref, w_ref = reference(t, simulator)
+        # (v, omega[, the sample from which they apply, None before any command: cmd_vel stale, as in the graph])
+        v_ref, w_ref, *since = reference(t, simulator)
         out = controller.compute(t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
-                                 hold=estimate and estimator.calibrating)
+                                 cmd_vel_stale=bool(since) and since[0] is None,
+                                 hold=estimate and estimator.calibrating, command_stamp=since[0] if since else t)
         if estimate:
             out = replace(out, pitch_estimated=True, gyro_bias=estimator.bias,
                           accelerometer_pitch=estimator.accelerometer_pitch)
@@ -129,14 +132,16 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
     resolve_planner(planner)  # refused here, before a run starts, when invalid on its own
     rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
     due = Decimator(rate)
-    held: dict[str, Any] = {"cmd": (0.0, 0.0), "core": None}
+    held: dict[str, Any] = {"cmd": (0.0, 0.0), "core": None, "since": None, "new": False}
 
-    def reference(t: float, sim: Simulator) -> tuple[float, float]:
+    def reference(t: float, sim: Simulator) -> tuple[float, float, float]:
         if held["core"] is None:
             held["core"] = ApfPlanner(resolve_planner(planner, sim.scenario), rate)
         core = held["core"]
+        if held["new"]:  # the first sample a command applies to
+            held["since"], held["new"] = t, False
         if not due.due(t):
-            return held["cmd"]
+            return (*held["cmd"], held["since"])
         odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
         world = sim.world
         state = world.target() if world is not None else None
@@ -147,7 +152,7 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
         if log is not None:
             log.append(out)
         # In effect from the next state on, as controller_node takes a cmd_vel (state_sync.VelocityCommand).
-        in_effect, held["cmd"] = held["cmd"], (out.velocity_cmd, out.yaw_rate_cmd)
-        return in_effect
+        in_effect, held["cmd"], held["new"] = held["cmd"], (out.velocity_cmd, out.yaw_rate_cmd), True
+        return (*in_effect, held["since"])
 
     return reference

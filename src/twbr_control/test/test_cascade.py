@@ -187,3 +187,76 @@ def test_a_reset_starts_the_ramps_from_zero():
     assert c.compute(0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == 0.3
     c.set_enabled(True)
     assert c.compute(0.505, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == pytest.approx(1.5 * 0.005)
+
+
+def _planner_stream(controller, commands, period=0.05, rate=200.0):
+    """A 20 Hz planner's commands as the controller node applies them: each from the sample after it, held
+    until the next; returns the outputs of every sample."""
+    outs, per = [], round(period * rate)
+    for i, w in enumerate(commands):
+        since = (i * per + 1) / rate
+        for j in range(per):
+            t = (i * per + 1 + j) / rate
+            outs.append(controller.compute(t, 0.0, w, 0.0, 0.0, 0.0, 0.0, command_stamp=since))
+    return outs
+
+
+def test_a_planner_ramp_reaches_the_yaw_rate_loop_as_a_ramp_not_a_staircase():
+    """The paper's planner slews omega by 0.05 rad/s per 50 ms (1 rad/s^2): held, each command steps the
+    reference and the proportional term kicks the differential torque 20 times a second; continued along the
+    stream's slope, the reference is the ramp itself, with no lag behind the planner's own line."""
+    ramp = [0.05 * i for i in range(1, 21)]
+    held = _planner_stream(make(**{"reference_hold.yaw_rate": 0.0}), ramp)
+    smooth = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25}), ramp)
+    t = np.array([o.stamp for o in smooth])
+    shaped = np.array([o.yaw_rate_ref_shaped for o in smooth])
+    # the line through the commands where they apply (after one interval catching up with the first)
+    line = 0.15 + 1.0 * (t - t[20])
+    assert np.abs(shaped[20:] - line[20:]).max() < 1e-9
+    # held: kp * 0.05 rad/s at each command; continued: kp * 1 rad/s^2 * 5 ms per sample (and the integral's share)
+    kicks = [np.abs(np.diff([o.differential_torque for o in outs[20:]])).max() for outs in (held, smooth)]
+    assert kicks[0] > 0.9 * 3.429 * 0.05 and kicks[1] < 0.15 * kicks[0]
+
+
+def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step():
+    """A ramp that stops: the reference overshoots the last command by at most one slope times the interval and
+    comes back to it along a straight line within one more interval; no sample-to-sample change is larger than
+    the ramp's own."""
+    commands = [0.05 * i for i in range(1, 11)] + [0.5] * 6
+    outs = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25}), commands)
+    shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
+    assert shaped.max() <= 0.55 + 1e-9
+    assert shaped[-30:] == pytest.approx(np.full(30, 0.5))
+    assert np.abs(np.diff(shaped[20:])).max() <= 1.0 / 200.0 + 1e-9  # once the first interval has caught up
+
+
+def test_a_step_faster_than_the_hold_slope_and_a_silent_planner_pass_at_once():
+    """A jump the planner's slew limit cannot make (a step asked for) is not extrapolated: no overshoot of the
+    reference; a stale cmd_vel zeroes the reference at once, whatever ramp was under way."""
+    c = make(**{"reference_hold.yaw_rate": 1.25})
+    outs = _planner_stream(c, [0.0, 0.5, 0.5, 0.5])
+    shaped = [o.yaw_rate_ref_shaped for o in outs]
+    assert max(shaped) == 0.5 and shaped[10] == 0.5
+    _planner_stream(c, [0.05 * i for i in range(1, 5)])
+    out = c.compute(1.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, cmd_vel_stale=True, command_stamp=0.2)
+    assert out.yaw_rate_ref_shaped == 0.0
+
+
+def test_the_yaw_rate_setpoint_weight_scales_the_proportional_kick_of_a_step():
+    full = make(**{"reference_hold.yaw_rate": 0.0}).compute(0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 0.0)
+    half = make(**{"reference_hold.yaw_rate": 0.0, "yaw_rate.setpoint_weight": 0.5}).compute(
+        0.0, 0.0, 0.4, 0.0, 0.0, 0.0, 0.0)
+    kick = 3.429 * 0.4
+    assert full.differential_torque == pytest.approx(kick + 0.9293 * 0.4 * 0.005)
+    assert half.differential_torque == pytest.approx(0.5 * kick + 0.9293 * 0.4 * 0.005)
+
+
+def test_the_first_command_from_rest_starts_a_ramp_and_a_large_one_is_a_step():
+    """A planner's first turn command (0.05 rad/s, its slew limit from 0) is eased in at the hold's slope
+    instead of kicking the differential torque; a first command beyond the hold's reach is obeyed at once."""
+    c = make(**{"reference_hold.yaw_rate": 1.25})
+    shaped = [o.yaw_rate_ref_shaped for o in _planner_stream(c, [0.05])]
+    assert shaped[0] == 0.0 and shaped[-1] == pytest.approx(0.05)
+    assert np.abs(np.diff([0.0, *shaped])).max() <= 1.25 / 200.0 + 1e-9
+    big = make(**{"reference_hold.yaw_rate": 1.25})
+    assert _planner_stream(big, [0.5])[0].yaw_rate_ref_shaped == 0.5

@@ -30,7 +30,8 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 # gains (pid.GAINS_LAYOUT each).
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
-    "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "velocity.measurement_filter",
+    "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
+    "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -43,6 +44,7 @@ C_FALL_PITCH = SETTINGS_LAYOUT["fall_pitch"]
 C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
 C_V_RATE = SETTINGS_LAYOUT["reference_rate.velocity"]  # [m/s^2]
 C_W_RATE = SETTINGS_LAYOUT["reference_rate.yaw_rate"]  # [rad/s^2]
+C_W_HOLD = SETTINGS_LAYOUT["reference_hold.yaw_rate"]  # [rad/s^2]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -53,11 +55,16 @@ C_VELOCITY = SETTINGS_LAYOUT["velocity"]
 C_PITCH = SETTINGS_LAYOUT["pitch"]
 C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
+# A command hold's memory (_command_hold): the last command, its stamp, whether there was one, and the
+# straight segment the held reference follows (from, to, start, end).
+H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END = range(7)
+N_HOLD = 7
+MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp: each is held as it is
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
     "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
-    "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+    ("yaw_rate_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
@@ -70,6 +77,7 @@ K_W_SHAPED = MEMORY_LAYOUT["yaw_rate_ref_shaped"]
 K_V_FILTERED = MEMORY_LAYOUT["velocity_filtered"]
 K_W_FILTERED = MEMORY_LAYOUT["yaw_rate_filtered"]
 K_FILTERS_READY = MEMORY_LAYOUT["filters_ready"]
+K_W_HOLD = MEMORY_LAYOUT["yaw_rate_hold"]
 K_LQR_POSITION = MEMORY_LAYOUT["lqr_position"]  # integral of the speed error [m]
 K_LQR_HEADING = MEMORY_LAYOUT["lqr_heading"]  # integral of the yaw-rate error [rad]
 K_VELOCITY = MEMORY_LAYOUT["velocity"]
@@ -145,7 +153,9 @@ def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
     c[SETTINGS_LAYOUT.block("pitch")] = PidGains(
         s["pitch.kp"], s["pitch.ki"], s["pitch.kd"], s["pitch.derivative_filter"], s["max_wheel_torque"],
     ).vector()
-    c[SETTINGS_LAYOUT.block("yaw_rate")] = PidGains(s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"]).vector()
+    c[SETTINGS_LAYOUT.block("yaw_rate")] = PidGains(
+        s["yaw_rate.kp"], s["yaw_rate.ki"], 0.0, 0.0, s["max_wheel_torque"], s["yaw_rate.setpoint_weight"],
+    ).vector()
     if c[C_CONTROLLER] == 1.0:
         from twbr_control.lqr import GAIN_NAMES, design
 
@@ -211,6 +221,45 @@ def _low_pass(k, slot, measurement, time_constant, dt):
 
 
 @kernel
+def _command_hold(h, reference, command_stamp, stamp, max_slope):
+    """The reference between commands (the sample-and-hold of a 20 Hz planner otherwise): on each command, a
+    straight line from where the held reference is now to where the command stream is heading one command
+    interval on (the command plus its last slope times the interval). A stream that ramps at a slope up to
+    `max_slope` (a planner's max_yaw_acceleration) then reaches the loop as the ramp itself, without lag and
+    without steps; where the slope changes the line bends instead of jumping. The first command after none
+    starts from 0 at `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump steeper than `max_slope`
+    (a step asked for) passes at once; 0: every command held as it is. `h`: the hold's memory (H_*)."""
+    if max_slope <= 0.0:
+        return reference
+    if h[H_HAS] == 0.0 or command_stamp > h[H_STAMP]:
+        interval = command_stamp - h[H_STAMP]
+        ramp = h[H_HAS] != 0.0 and 0.0 < interval <= MAX_HOLD_INTERVAL
+        slope = (reference - h[H_COMMAND]) / interval if ramp else 0.0
+        if ramp and abs(slope) <= max_slope * (1.0 + 1e-6):
+            current = h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
+            h[H_FROM] = current
+            h[H_TO] = reference + slope * interval
+            h[H_START] = stamp
+            h[H_END] = stamp + interval
+        elif h[H_HAS] == 0.0 and 0.0 < abs(reference) <= max_slope * MAX_HOLD_INTERVAL:
+            # The first command after none (start-up, or after a stale stream): the robot was holding 0; a
+            # command within one ramp's reach of it is the start of a ramp, run at max_slope from 0.
+            h[H_FROM] = 0.0
+            h[H_TO] = reference
+            h[H_START] = stamp
+            h[H_END] = stamp + abs(reference) / max_slope
+        else:
+            h[H_FROM] = reference
+            h[H_TO] = reference
+            h[H_START] = stamp
+            h[H_END] = stamp + 1.0
+        h[H_COMMAND] = reference
+        h[H_STAMP] = command_stamp
+        h[H_HAS] = 1.0
+    return h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
+
+
+@kernel
 def _rate_limit(k, shaped, reference, rate, dt):
     """Move k[shaped] towards `reference` by at most `rate` * dt (0: at once): a step becomes a ramp, a
     command stream that changes no faster (a planner's, limited by its own max_acceleration) passes as is."""
@@ -259,8 +308,9 @@ def _cascade(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
 
 @kernel
 def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_rate, pitch, pitch_rate,
-                    cmd_vel_stale, hold):
-    """Wheel torques for the state stamped `stamp` [s] into `out` (O_*); stale cmd_vel: zero references;
+                    cmd_vel_stale, hold, command_stamp):
+    """Wheel torques for the state stamped `stamp` [s] into `out` (O_*), the references from the command stamped
+    `command_stamp` [s] (a later stamp: a new command, even if equal); stale cmd_vel: zero references;
     `hold`: zero torque with the loops at rest (the estimator calibrating on the robot's stand)."""
     dt = _sample_time(c, k, stamp)
     k[K_LAST_STAMP] = stamp
@@ -268,6 +318,7 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     if cmd_vel_stale:
         velocity_ref = 0.0
         yaw_rate_ref = 0.0
+        k[K_W_HOLD + H_HAS] = 0.0  # no ramp continued past the planner's silence
     velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
     yaw_rate_ref = _clip(yaw_rate_ref, c[C_MAX_W_REF])
     if abs(pitch - c[C_PITCH_OFFSET]) > c[C_FALL_PITCH] and k[K_FALLEN] == 0.0:
@@ -289,7 +340,10 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
         # commands) then moves the proportional terms, and the torques, smoothly.
         _rate_limit(k, K_V_SHAPED, velocity_ref, c[C_V_RATE], dt)
-        _rate_limit(k, K_W_SHAPED, yaw_rate_ref, c[C_W_RATE], dt)
+        # (no command: 0 at once, and the hold forgets the stream, so that the next command starts afresh)
+        held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
+            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD])
+        _rate_limit(k, K_W_SHAPED, held_yaw_rate, c[C_W_RATE], dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.
         velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)
         yaw_rate = _low_pass(k, K_W_FILTERED, yaw_rate, c[C_W_MEASUREMENT_FILTER], dt)
@@ -374,11 +428,14 @@ class CascadeController:
         pitch_rate: float,
         cmd_vel_stale: bool = False,
         hold: bool = False,
+        command_stamp: float | None = None,
     ) -> ControlOutput:
-        """Wheel torques for the state stamped `stamp` [s]; stale cmd_vel means zero references."""
+        """Wheel torques for the state stamped `stamp` [s]; stale cmd_vel means zero references.
+        `command_stamp`: when the references were commanded [s] (default `stamp`: a new command each sample)."""
         o = self._out
         cascade_compute(self.c, self.k, o, float(stamp), float(velocity_ref), float(yaw_rate_ref), float(velocity),
-                        float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale), bool(hold))
+                        float(yaw_rate), float(pitch), float(pitch_rate), bool(cmd_vel_stale), bool(hold),
+                        float(stamp if command_stamp is None else command_stamp))
         return ControlOutput(
             stamp=stamp, velocity_ref=float(o[O_VELOCITY_REF]), velocity_ref_shaped=float(o[O_V_SHAPED]),
             velocity=velocity, yaw_rate_ref=float(o[O_YAW_RATE_REF]), yaw_rate_ref_shaped=float(o[O_W_SHAPED]),

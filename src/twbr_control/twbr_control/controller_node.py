@@ -156,7 +156,8 @@ class ControllerNode(Node):
             velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
             out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale,
-                                          hold=self._estimated and self.estimator.calibrating)
+                                          hold=self._estimated and self.estimator.calibrating,
+                                          command_stamp=self.command.since)
             if self._estimated:
                 out = replace(out, pitch_estimated=True, gyro_bias=self.estimator.bias,
                               accelerometer_pitch=self.estimator.accelerometer_pitch)

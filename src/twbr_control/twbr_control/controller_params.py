@@ -30,6 +30,9 @@ GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
               0.0, 1.0),
     ParamSpec("yaw_rate.kp", 3.429, "yaw-rate loop: differential torque per rad/s of error", "N·m·s/rad", 0.0, 1000.0),
     ParamSpec("yaw_rate.ki", 0.9293, "yaw-rate loop: integral gain", "N·m/rad", 0.0, 1000.0),
+    ParamSpec("yaw_rate.setpoint_weight", 1.0, "yaw-rate loop: weight b of omega_ref in the proportional term"
+              " (b*omega_ref - omega); b < 1: a command step moves the differential torque by b times less", "",
+              0.0, 1.0),
 )
 
 CONTROL_SPECS: tuple[ParamSpec, ...] = (
@@ -42,9 +45,13 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("reference_rate.velocity", 0.3621, "largest rate of change of v_ref the velocity loop sees: a step"
               " becomes a ramp and asks for less roll-back; a planner's commands, limited by its own"
               " max_acceleration, pass as they are; 0: no limit", "m/s²", 0.0, 100.0),
-    ParamSpec("reference_rate.yaw_rate", 0.0, "largest rate of change of omega_ref the yaw-rate loop sees (1.0, a"
-              " 20 Hz planner's max_yaw_acceleration, interpolates its command steps: no 20 Hz torque sawtooth);"
-              " 0: no limit", "rad/s²", 0.0, 1000.0),
+    ParamSpec("reference_rate.yaw_rate", 0.0, "largest rate of change of omega_ref the yaw-rate loop sees (a"
+              " step becomes a ramp); 0: no limit", "rad/s²", 0.0, 1000.0),
+    ParamSpec("reference_hold.yaw_rate", 1.25, "between two cmd_vel, omega_ref goes on along the commands' slope"
+              " when it is at most this (a planner slewing omega, its max_yaw_acceleration 1 rad/s² with room for"
+              " a sample of jitter): its 20 Hz steps reach the yaw-rate loop as the ramp they sample, without lag;"
+              " a steeper jump is a step and applies at once; 0: each command held as it comes", "rad/s²",
+              0.0, 1000.0),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",

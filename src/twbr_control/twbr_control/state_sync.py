@@ -97,6 +97,7 @@ class VelocityCommand:
     def reset(self) -> None:
         self._next: tuple[float, float, float] | None = None  # (stamp, v, omega) not yet in effect
         self._stamp: float | None = None  # the stamp of the one in effect
+        self.since = 0.0  # [s] the stamp of the first state it applied to (the cascade's command_stamp)
         self._refs = (0.0, 0.0)
 
     def offer(self, stamp: float, velocity: float, yaw_rate: float) -> None:
@@ -107,6 +108,7 @@ class VelocityCommand:
         """(v_ref [m/s], omega_ref [rad/s], stale) for the state stamped `stamp` [s]."""
         if self._next is not None and self._next[0] < stamp:
             self._stamp, *refs = self._next
+            self.since = stamp
             self._refs = (refs[0], refs[1])
             self._next = None
         stale = self._stamp is None or stamp - self._stamp > self.timeout
