@@ -15,6 +15,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_common.params import ParamSpec
 from twbr_common.ros_params import declare, run_node
+from twbr_view.priority import run_at_idle_priority
 from twbr_view.scene import VIEWED_TOPICS, RunView, blueprint, feed
 from twbr_view.server import ViewerServer, prepare
 
@@ -25,6 +26,9 @@ VIEWER_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("map_rate", 30.0, "highest rate of the robot's pose on the map", "Hz", 1.0, 1000.0),
     ParamSpec("series_rate", 50.0, "highest rate of each time series drawn (controller_state comes at 200 Hz)",
               "Hz", 1.0, 1000.0),
+    ParamSpec("idle_priority", True, "run at the CPU's idle priority (Linux SCHED_IDLE, else nice 19): the"
+              " viewer and its web server take only CPU time the graph leaves and drop what they cannot draw;"
+              " false: a normal process"),
     ParamSpec("memory_limit", "25%", "what the web viewer's server may hold for late browsers (Rerun's"
               " --server-memory-limit: bytes with a unit, or a share of RAM)"),
 )
@@ -41,6 +45,7 @@ class Viewer(Node):
     def __init__(self) -> None:
         super().__init__("viewer")
         cfg = declare(self, VIEWER_SPECS)
+        priority = run_at_idle_priority() if cfg["idle_priority"] else "normal"
         prepare()
         import rerun as rr
 
@@ -53,7 +58,8 @@ class Viewer(Node):
         for topic, kind in VIEWED_TOPICS.items():
             self.create_subscription(message_type(kind), topic, lambda msg, topic=topic: feed(self.view, topic, msg),
                                      LATEST_ONLY)
-        self.get_logger().info(f"open {self.server.url} in a browser (served on 127.0.0.1 only)")
+        self.get_logger().info(f"open {self.server.url} in a browser (served on 127.0.0.1 only; CPU priority:"
+                               f" {priority})")
 
     def destroy_node(self) -> None:
         logged = self.view.logged
