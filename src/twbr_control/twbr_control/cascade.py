@@ -57,14 +57,15 @@ C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 # A command hold's memory (_command_hold): the last command, its stamp, whether there was one, and the
 # straight segment the held reference follows (from, to, start, end).
-H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END = range(7)
 N_HOLD = 7
+H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END = range(N_HOLD)
 MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp: each is held as it is
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
     "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
-    ("yaw_rate_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
+    ("yaw_rate_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY),
+    ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
@@ -221,6 +222,12 @@ def _low_pass(k, slot, measurement, time_constant, dt):
 
 
 @kernel
+def _segment_at(h, stamp):
+    """The command hold's straight segment (H_*) at `stamp`: its end value once past its end."""
+    return h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
+
+
+@kernel
 def _command_hold(h, reference, command_stamp, stamp, max_slope):
     """The reference between commands (the sample-and-hold of a 20 Hz planner otherwise): on each command, a
     straight line from where the held reference is now to where the command stream is heading one command
@@ -236,27 +243,21 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
         ramp = h[H_HAS] != 0.0 and 0.0 < interval <= MAX_HOLD_INTERVAL
         slope = (reference - h[H_COMMAND]) / interval if ramp else 0.0
         if ramp and abs(slope) <= max_slope * (1.0 + 1e-6):
-            current = h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
-            h[H_FROM] = current
-            h[H_TO] = reference + slope * interval
-            h[H_START] = stamp
-            h[H_END] = stamp + interval
+            start_value, end_value, duration = _segment_at(h, stamp), reference + slope * interval, interval
         elif h[H_HAS] == 0.0 and 0.0 < abs(reference) <= max_slope * MAX_HOLD_INTERVAL:
             # The first command after none (start-up, or after a stale stream): the robot was holding 0; a
             # command within one ramp's reach of it is the start of a ramp, run at max_slope from 0.
-            h[H_FROM] = 0.0
-            h[H_TO] = reference
-            h[H_START] = stamp
-            h[H_END] = stamp + abs(reference) / max_slope
-        else:
-            h[H_FROM] = reference
-            h[H_TO] = reference
-            h[H_START] = stamp
-            h[H_END] = stamp + 1.0
+            start_value, end_value, duration = 0.0, reference, abs(reference) / max_slope
+        else:  # held as it is (any duration: the segment is flat)
+            start_value, end_value, duration = reference, reference, 1.0
+        h[H_FROM] = start_value
+        h[H_TO] = end_value
+        h[H_START] = stamp
+        h[H_END] = stamp + duration
         h[H_COMMAND] = reference
         h[H_STAMP] = command_stamp
         h[H_HAS] = 1.0
-    return h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
+    return _segment_at(h, stamp)
 
 
 @kernel
