@@ -23,10 +23,14 @@ def stamped(msg, t: float):
 class Sink:
     def __init__(self) -> None:
         self.entries: list[tuple[float, str, object]] = []
+        self.static: dict[str, object] = {}
         self.t = 0.0
 
-    def log(self, path: str, archetype: object) -> None:
-        self.entries.append((self.t, path, archetype))
+    def log(self, path: str, archetype: object, static: bool = False) -> None:
+        if static:
+            self.static[path] = archetype
+        else:
+            self.entries.append((self.t, path, archetype))
 
     def set_time(self, t: float) -> None:
         self.t = t
@@ -66,25 +70,56 @@ def test_the_map_and_the_plots_are_logged_on_sim_time():
     view = RunView(sink.log, sink.set_time)
     drive(view)
     logged = view.logged
-    # The pose at most 30 times a second of sim time; the path once it has grown by 5 cm (2 m: ~40 points).
-    assert 110 <= logged["map/robot"] <= 121 and 38 <= logged["map/robot/path"] <= 41
-    last_robot = sink.paths("map/robot")[-1]
-    assert last_robot[0] == pytest.approx(4.0, abs=1.0 / 30.0)  # the last pose drawn, on its own stamp
-    # Time series decimated to series_rate (50 Hz): 201 of 801 controller states.
-    assert logged["plots/speed/reference"] == 201
-    assert logged["plots/torque/left_delivered"] == 201
+    # The pose (the robot's frame) at most 30 times a second of sim time, on its own stamp.
+    assert 110 <= logged["map/robot"] <= 121
+    t_last, pose = sink.paths("map/robot")[-1]
+    assert t_last == pytest.approx(4.0, abs=1.0 / 30.0)
+    assert pose.translation.as_arrow_array().to_pylist()[0][0] == pytest.approx(0.5 * t_last)
+    # The path: a point every 5 cm, re-drawn about every 0.25 s (checked at the 30 Hz pose): the last one
+    # drawn is at most ~0.3 s (15 cm) behind the robot's 2 m.
+    assert 13 <= logged["map/robot_path"] <= 17
+    t_path, strip = sink.paths("map/robot_path")[-1]
+    points = strip.strips.as_arrow_array().to_pylist()[0]
+    assert t_path > 3.7 and points[-1][0] == pytest.approx(0.5 * t_path, abs=0.05)
+    assert len(points) == pytest.approx(0.5 * t_path / 0.05 + 1, abs=1.5)
+    # Time series decimated to series_rate (50 Hz): 201 of 801 controller states, both lines in one call.
+    assert logged["plots/speed"] == 201 and logged["plots/torque/delivered"] == 201
+    assert sink.paths("plots/speed")[-1][1].scalars.as_arrow_array().to_pylist() == pytest.approx([0.5, 0.49])
+    assert sink.paths("plots/torque/delivered")[-1][1].scalars.as_arrow_array().to_pylist() == pytest.approx(
+        [0.1, 0.2])
     # The field about once a second, once the planner has given its gains.
     assert 4 <= logged["map/field"] <= 5
-    for path in ("map/target", "map/obstacles", "map/obstacles/velocity", "map/forces/total",
-                 "map/detection_range", "planner/mode", "plots/distance/to_target"):
+    for path in ("map/forces", "plots/distance"):
         assert logged[path] == 81, path
+    # What does not change is logged once: the standing target and obstacle, the mode, the detection range
+    # (a circle in the robot's frame).
+    for path in ("map/target", "map/obstacles", "map/obstacles/velocity", "planner/mode",
+                 "map/robot/detection_range"):
+        assert logged[path] == 1, path
+    # Each entity's look is logged once, as static: the lines' names, the robot's colour.
+    assert sink.static["plots/speed"].names.as_arrow_array().to_pylist() == ["v_ref", "v"]
+    assert sink.static["map/robot/body"].colors is not None
+
+
+def test_a_moving_obstacle_is_drawn_again_and_a_removed_one_disappears():
+    sink = Sink()
+    view = RunView(sink.log, sink.set_time)
+    view.obstacle_list(0.0, [(1, 2.0, 1.0, 0.0, 0.0, 0.4), (2, 4.0, 0.0, 0.1, 0.0, 0.3)])
+    view.obstacle_list(0.05, [(1, 2.0, 1.0, 0.0, 0.0, 0.4), (2, 4.005, 0.0, 0.1, 0.0, 0.3)])
+    view.obstacle_list(0.10, [(1, 2.0, 1.0, 0.0, 0.0, 0.4)])
+    first, moved, removed = (a for _t, a in sink.paths("map/obstacles"))
+    assert moved.positions.as_arrow_array().to_pylist()[1][0] == pytest.approx(4.005)
+    assert first.radii.as_arrow_array().to_pylist() == pytest.approx([0.4, 0.3])
+    assert first.labels.as_arrow_array().to_pylist() == ["1", "2"] and moved.labels is None  # same ids
+    assert removed.positions.as_arrow_array().to_pylist() == [[2.0, 1.0, 0.0]]
+    assert removed.labels.as_arrow_array().to_pylist() == ["1"]
 
 
 def test_the_total_force_arrow_points_along_the_force_and_has_a_fixed_length():
     sink = Sink()
     view = RunView(sink.log, sink.set_time)
     drive(view, 0.5)
-    _t, arrow = sink.paths("map/forces/total")[-1]
-    vector = arrow.vectors.as_arrow_array().to_pylist()[0]
-    assert math.hypot(vector[0], vector[1]) == pytest.approx(1.5)
-    assert vector[1] == pytest.approx(0.0)
+    _t, arrows = sink.paths("map/forces")[-1]
+    attractive, _repulsive, total = arrows.vectors.as_arrow_array().to_pylist()
+    assert math.hypot(total[0], total[1]) == pytest.approx(1.5)
+    assert total[1] == pytest.approx(0.0) and attractive == pytest.approx(total)
