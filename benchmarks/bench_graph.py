@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import itertools
 import json
 import os
 import statistics
@@ -55,8 +56,10 @@ CONFIGS: dict[str, tuple[str, str, dict[str, int] | None]] = {
 
 
 def run_graph(mode: str, partner: str, pinning: dict[str, int] | None, sim_seconds: float, domain: int,
-              log_dir: Path) -> dict:
+              log_dir: Path, node_jit: str | None = None) -> dict:
+    """One run; node_jit: TWBR_JIT of controller_node and planner_node (None: their default, interpreted)."""
     env = loopback_env(domain)
+    node_env = {**env, "TWBR_JIT": node_jit} if node_jit else env
 
     def node_args(name: str, *files: str) -> list[str]:
         pin = ["-p", f"cpu_affinity:=[{pinning[name]}]"] if pinning and name in pinning else []
@@ -68,10 +71,10 @@ def run_graph(mode: str, partner: str, pinning: dict[str, int] | None, sim_secon
                                    log_dir, f"echo-{domain}")
     else:
         procs["controller"] = start_node("twbr_control", "controller_node", node_args("controller", "controller.yaml"),
-                                         env, log_dir, f"controller-{domain}")
+                                         node_env, log_dir, f"controller-{domain}")
     if partner == "navigation":
-        procs["planner"] = start_node("twbr_planner", "planner_node", node_args("planner", "planner.yaml"), env,
-                                      log_dir, f"planner-{domain}")
+        procs["planner"] = start_node("twbr_planner", "planner_node", node_args("planner", "planner.yaml"),
+                                      node_env, log_dir, f"planner-{domain}")
     sim_args = [*node_args("sim", "robot.yaml", "sim.yaml"), "-p", f"mode:={mode}", "-p", f"duration:={sim_seconds}",
                 "-p", f"wait_for_subscribers:={len(procs)}"]
     if partner == "navigation":
@@ -114,6 +117,9 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--json", help="write the figures to this file")
     ap.add_argument("--only", nargs="+", choices=CONFIGS, help="measure only these graphs (no summary)")
+    ap.add_argument("--compare-jit", action="store_true",
+                    help="run each graph twice per round, controller and planner interpreted (their default) and"
+                         " compiled (TWBR_JIT=on), and print both (no summary)")
     args = ap.parse_args()
     base = int(os.environ.get("ROS_DOMAIN_ID", "150"))
     log_dir = Path(tempfile.mkdtemp(prefix="twbr-bench-graph-"))
@@ -121,13 +127,15 @@ def main() -> int:
     result: dict = {"cores": os.cpu_count(), "physics_rate_hz": 1000, "controller_rate_hz": 200,
                     "sim_seconds": args.sim_seconds, "runs": args.runs}
     # Not measured: a short run that loads (or, after an edit, compiles and caches) every node's kernels.
-    run_graph("lockstep", "navigation", None, 1.0, base, log_dir)
-    rows: dict[str, list[dict]] = {label: [] for label in configs}
+    variants = {"": None} if not args.compare_jit else {" interpreted": "off", " compiled": "on"}
+    run_graph("lockstep", "navigation", None, 1.0, base, log_dir, "on")
+    rows: dict[str, list[dict]] = {label + v: [] for label in configs for v in variants}
     domain = base
     for k in range(args.runs):
-        for label, (mode, partner, pinning) in configs.items():
+        for (label, (mode, partner, pinning)), (variant, jit) in itertools.product(configs.items(), variants.items()):
             domain = (domain + 1) % 230
-            row = run_graph(mode, partner, pinning, args.sim_seconds, domain, log_dir)
+            row = run_graph(mode, partner, pinning, args.sim_seconds, domain, log_dir, jit)
+            label += variant
             rows[label].append(row)
             print(f"round {k + 1} {label}: real-time factor {row['real_time_factor']:.2f},"
                   f" {row['exchanges_per_s']:.0f} exchanges/s, latency median {row['latency_median_ms']:.3f} ms,"
@@ -136,7 +144,11 @@ def main() -> int:
                   flush=True)
     for label, label_rows in rows.items():
         result[label] = summarise(label_rows)
-    if args.only:
+    if args.only or args.compare_jit:
+        for label, r in result.items():
+            if isinstance(r, dict):
+                print(f"{label}: medians over {args.runs} rounds: real-time factor {r['real_time_factor']:.2f},"
+                      f" latency median {r['latency_median_ms']:.3f} ms, p99 {r['latency_p99_ms']:.3f} ms")
         return 0
     rtf = result["lockstep_controller"]["real_time_factor"]
     print(f"medians over {args.runs} rounds ({os.cpu_count()} cores): lockstep real-time factor {rtf:.2f} (sim +"

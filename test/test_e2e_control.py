@@ -301,3 +301,21 @@ def test_controller_follows_a_realtime_simulator_on_the_wall_clock(launch, ros):
     assert np.median(dts) == pytest.approx(0.005, abs=1e-6)  # one command per 5 ms state
     assert recent[-1].velocity == pytest.approx(0.2, abs=0.02)
     assert not any(s.fallen for s in h.status)
+
+
+@pytest.mark.parametrize(("package", "name", "params", "ready"), [
+    ("twbr_control", "controller_node", "controller.yaml", "cascaded PID at"),
+    ("twbr_planner", "planner_node", "planner.yaml", "APF planner at"),
+])
+def test_the_deployable_nodes_run_without_the_jit_in_under_100_mib(launch, package, name, params, ready):
+    """What a robot's computer runs: no numba or LLVM loaded (TWBR_JIT defaults to off for these two)."""
+    node = launch(package, name, params=(params,))
+    deadline = time.monotonic() + 30.0
+    while ready not in node.output:
+        assert node.running and time.monotonic() < deadline, node.output
+        time.sleep(0.1)
+    maps = Path(f"/proc/{node.proc.pid}/maps").read_text()
+    assert "llvmlite" not in maps and "numba" not in maps
+    status = Path(f"/proc/{node.proc.pid}/status").read_text()
+    rss_mib = int(next(line for line in status.splitlines() if line.startswith("VmRSS")).split()[1]) / 1024
+    assert rss_mib <= 100.0, f"{name}: {rss_mib:.0f} MiB resident"

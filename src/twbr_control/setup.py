@@ -16,5 +16,5 @@ setup(
     maintainer_email="maintainers@twbr.dev",
     description="Cascaded PID controller of the TWBR: pitch and forward speed, PI yaw rate.",
     license="Apache-2.0",
-    entry_points={"console_scripts": ["controller_node = twbr_control.controller_node:main"]},
+    entry_points={"console_scripts": ["controller_node = twbr_control.controller_main:main"]},
 )

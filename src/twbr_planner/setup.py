@@ -16,5 +16,5 @@ setup(
     maintainer_email="maintainers@twbr.dev",
     description="Artificial-potential-field planner of the TWBR: moving target, static and moving obstacles.",
     license="Apache-2.0",
-    entry_points={"console_scripts": ["planner_node = twbr_planner.planner_node:main"]},
+    entry_points={"console_scripts": ["planner_node = twbr_planner.planner_main:main"]},
 )

@@ -19,10 +19,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numba
 import numpy as np
 
-from twbr_common.jit import kernel, parallel_kernel
+from twbr_common.jit import kernel, parallel_chunksize, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due
@@ -403,7 +402,7 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q):
     record = traces.shape[0] > 0
-    for i in numba.prange(params.shape[0]):
+    for i in prange(params.shape[0]):
         trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
         run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
                   radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
@@ -501,7 +500,7 @@ def run_batch(
     run[U_FRICTION] = sim_cfg["traction.friction"]
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
-    with numba.parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
+    with parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
                     encoder_c, encoder_m, estimator_vector(control_cfg))

@@ -14,17 +14,33 @@ numba invalidates a cached kernel when its own file changes, not when a kernel i
 changes in another file: the batch engine would keep running yesterday's controller. So the cache lives
 in a directory named by a digest of every twbr package's source, under ~/.cache/twbr/numba (or
 $XDG_CACHE_HOME/twbr/numba); NUMBA_CACHE_DIR, when set, wins.
+
+TWBR_JIT=off runs the same kernels as plain Python and never imports numba (whose LLVM is ~60 MiB and
+~0.3 s of every process that loads it). The deployable nodes default to it (`twbr_common.deploy`):
+the controller's step takes ~30 µs interpreted against ~9 µs compiled, well inside its 5 ms period.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
 from collections.abc import Iterable
 from pathlib import Path
 
-import numba
+from twbr_common.deploy import JIT_ENV as ENV
+from twbr_common.params import ConfigError
+
+CHOICES = ("on", "off")
+
+
+def jit_mode() -> str:
+    mode = os.environ.get(ENV, "on")
+    if mode not in CHOICES:
+        raise ConfigError(f"invalid environment variable {ENV} = {mode!r}: must be one of {', '.join(CHOICES)}")
+    return mode
+
 
 PACKAGES = ("twbr_common", "twbr_sim", "twbr_control", "twbr_planner", "twbr_runner")
 
@@ -52,9 +68,24 @@ def cache_dir() -> Path:
     return base / "twbr" / "numba" / source_digest(_package_dirs())
 
 
-if not os.environ.get("NUMBA_CACHE_DIR"):
-    numba.config.CACHE_DIR = str(cache_dir())
-
 FASTMATH = {"contract"}
-kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True)
-parallel_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, parallel=True)
+COMPILED = jit_mode() == "on"
+
+if COMPILED:
+    import numba
+
+    if not os.environ.get("NUMBA_CACHE_DIR"):
+        numba.config.CACHE_DIR = str(cache_dir())
+    kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True)
+    parallel_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, parallel=True)
+    prange = numba.prange
+    parallel_chunksize = numba.parallel_chunksize
+else:
+    def kernel(function):  # the same source, run by the interpreter
+        return function
+
+    parallel_kernel = kernel
+    prange = range
+
+    def parallel_chunksize(_size: int) -> contextlib.AbstractContextManager:
+        return contextlib.nullcontext()

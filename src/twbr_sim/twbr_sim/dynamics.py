@@ -13,10 +13,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-from twbr_common.jit import kernel, parallel_kernel
+from twbr_common.jit import kernel, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_sim.robot_params import (
     D_A,
@@ -232,7 +231,7 @@ def simulate(p, s, cmd_left, cmd_right, h, n_steps, work):
 def step_batch(params, states, commands, h, n_steps):
     """Advance N robots by n_steps each: params (N, N_PARAMS), states (N, N_STATE), commands (N, 2)."""
     n = states.shape[0]
-    for i in numba.prange(n):
+    for i in prange(n):
         work = np.empty((WORK_ROWS, N_STATE))
         for _ in range(n_steps):
             rk4_step(params[i], states[i], commands[i, 0], commands[i, 1], h, work)

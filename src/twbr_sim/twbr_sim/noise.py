@@ -9,6 +9,7 @@ simulator node with the same seed draws, whichever thread runs it.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -22,6 +23,8 @@ _S27 = np.uint64(27)
 _S31 = np.uint64(31)
 _S11 = np.uint64(11)
 _INV_2_53 = 1.0 / 9007199254740992.0
+# Interpreted (TWBR_JIT=off), numpy warns where uint64 products wrap; splitmix64 means them to wrap.
+warnings.filterwarnings("ignore", "overflow encountered in scalar multiply", RuntimeWarning, __name__)
 
 
 def new_generator(seed: int, stream: int) -> np.ndarray:
