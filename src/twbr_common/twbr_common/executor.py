@@ -11,23 +11,18 @@ it out while chasing a bug.
 
 from __future__ import annotations
 
-import os
-
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import Executor, SingleThreadedExecutor
 
-from twbr_common.params import ConfigError
+from twbr_common.params import env_choice
 
 ENV = "TWBR_EXECUTOR"
 CHOICES = ("events", "single")
 
 
 def executor_kind() -> str:
-    kind = os.environ.get(ENV, "events")
-    if kind not in CHOICES:
-        raise ConfigError(f"invalid environment variable {ENV} = {kind!r}: must be one of {', '.join(CHOICES)}")
-    return kind
+    return env_choice(ENV, CHOICES, "events")
 
 
 def new_executor(context: Context | None = None) -> Executor:

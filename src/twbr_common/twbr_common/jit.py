@@ -30,16 +30,13 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from twbr_common.deploy import JIT_ENV as ENV
-from twbr_common.params import ConfigError
+from twbr_common.params import env_choice
 
 CHOICES = ("on", "off")
 
 
 def jit_mode() -> str:
-    mode = os.environ.get(ENV, "on")
-    if mode not in CHOICES:
-        raise ConfigError(f"invalid environment variable {ENV} = {mode!r}: must be one of {', '.join(CHOICES)}")
-    return mode
+    return env_choice(ENV, CHOICES, "on")
 
 
 PACKAGES = ("twbr_common", "twbr_sim", "twbr_control", "twbr_planner", "twbr_runner")

@@ -8,6 +8,7 @@ A bad value raises ConfigError with one message naming the parameter and its val
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -15,6 +16,14 @@ from typing import Any
 
 class ConfigError(ValueError):
     """A parameter or configuration file that the node must refuse at start-up."""
+
+
+def env_choice(name: str, choices: tuple[str, ...], default: str) -> str:
+    """An environment variable that selects one of `choices` (unset: `default`); anything else is refused."""
+    value = os.environ.get(name, default)
+    if value not in choices:
+        raise ConfigError(f"invalid environment variable {name} = {value!r}: must be one of {', '.join(choices)}")
+    return value
 
 
 @dataclass(frozen=True)
