@@ -57,8 +57,9 @@ def _check_wrong_type_reported(launch, ros, ros_env, tmp_path) -> None:
     argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "-a", "cmd_vel:geometry_msgs/msg/Twist"]
     recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
     try:
-        planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+        # Our Twist publisher matched first: the planner (up in ~0.5 s) would otherwise be matched with it.
         assert ros.spin_until(lambda: "matched 1 publisher(s) on /cmd_vel" in recorder.output, 20.0), recorder.output
+        planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
         for _ in range(20):
             right.publish(Twist())
             ros.spin_for(0.05)
