@@ -18,6 +18,8 @@ import sys
 import time
 from pathlib import Path
 
+import psutil
+
 from twbr_runner.runner import params_files
 from twbr_runner.spawn import loopback_env, node_executable
 
@@ -38,8 +40,7 @@ def start_once(name: str, jit: str, domain: int) -> tuple[float, float]:
         if not line.startswith("[INFO]"):
             raise RuntimeError(f"{name} did not start: {line}{proc.stderr.read() if proc.poll() is not None else ''}")
         time.sleep(1.0)
-        status = Path(f"/proc/{proc.pid}/status").read_text()
-        rss = int(next(s for s in status.splitlines() if s.startswith("VmRSS")).split()[1]) / 1024
+        rss = psutil.Process(proc.pid).memory_info().rss / 2**20
     finally:
         proc.terminate()
         proc.wait(timeout=10)

@@ -15,24 +15,23 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import psutil
+
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.spawn import loopback_env
 from twbr_view.scene import VIEWED_TOPICS, RunView, blueprint, feed, stamp_of
 from twbr_view.server import ViewerServer, prepare
 
-CLOCK_TICK = os.sysconf("SC_CLK_TCK")
-
 
 def cpu_seconds(pid: int) -> float:
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLOCK_TICK
+    times = psutil.Process(pid).cpu_times()
+    return times.user + times.system
 
 
 def record_run(out: Path, domain: int) -> Path:

@@ -58,14 +58,13 @@ class Trail:
         self._xyz = np.empty((256, 3))
         self.n = 0
 
-    def extend(self, x: float, y: float) -> bool:
+    def extend(self, x: float, y: float) -> None:
         if self.n and math.hypot(x - self._xyz[self.n - 1, 0], y - self._xyz[self.n - 1, 1]) < self.spacing:
-            return False
+            return
         if self.n == len(self._xyz):
             self._xyz = np.concatenate([self._xyz, np.empty_like(self._xyz)])
         self._xyz[self.n] = (x, y, 0.03)
         self.n += 1
-        return True
 
     @property
     def points(self) -> np.ndarray:
