@@ -8,9 +8,14 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 # Sensor streams (odom, imu, joint_states) are subscribed best effort: that matches reliable and
-# best-effort publishers alike (real drivers differ). Our publishers of them are reliable.
+# best-effort publishers alike (real drivers differ). Our publishers of them are reliable, and keep the
+# last STREAM_HISTORY samples to resend: a reliable recorder that the machine's load holds back (two
+# busy cores and a 200 Hz stream: 10 samples are 17 ms of wall time at RTF 3) catches up from them
+# instead of losing what it missed. Keeping them costs memory, never the publisher's time.
+STREAM_HISTORY = 100
 SENSOR_SUB_QOS = qos_profile_sensor_data
-SENSOR_PUB_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+SENSOR_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
+CLOCK_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
 # Commands and world topics are reliable.
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 WORLD_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

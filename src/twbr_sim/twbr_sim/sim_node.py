@@ -26,6 +26,7 @@ from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import DropReport, Verdict
 from twbr_common.params import ConfigError
 from twbr_common.ros_io import (
+    CLOCK_PUB_QOS,
     COMMAND_QOS,
     SENSOR_PUB_QOS,
     WORLD_QOS,
@@ -81,7 +82,7 @@ class SimNode(Node):
         self.drops = DropReport(self.get_logger().warning)
 
         self._clock_msg, self._odom_msg, self._imu_msg = self._control_messages()
-        self.pub_clock = self.create_publisher(Clock, "/clock", 10)
+        self.pub_clock = self.create_publisher(Clock, "/clock", CLOCK_PUB_QOS)
         self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
         self.pub_imu = self.create_publisher(Imu, "imu", SENSOR_PUB_QOS)
         self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
