@@ -45,3 +45,28 @@ def test_an_unknown_jit_mode_is_refused_by_name():
     done = subprocess.run([sys.executable, "-c", "import twbr_common.jit"], env={**os.environ, "TWBR_JIT": "maybe"},
                           capture_output=True, text=True, timeout=60)
     assert done.returncode != 0 and "TWBR_JIT" in done.stderr and "on, off" in done.stderr
+
+
+STATUS = """
+from rclpy.serialization import serialize_message
+from twbr_msgs.msg import SimStatus
+from twbr_sim.robot_params import robot_params
+from twbr_common.params import defaults, validate_all
+from twbr_sim.simulator import SIM_SPECS, Simulator
+sim = Simulator(robot_params(), validate_all(SIM_SPECS, {**defaults(SIM_SPECS), "traction.friction": 0.8}), None, 0)
+sim.offer_command(0.0, 0.5, -0.5)
+sim.advance(5)
+sample = sim.sense()
+msg = SimStatus(fallen=sim.fallen, torque_saturated=sim.torque_saturated, command_stale=sim.command_stale,
+                wheel_lifted=sim.traction.lifted, wheel_slipping=sim.traction.slipping)
+print(len(serialize_message(msg)), type(sample.wheel_lifted).__name__)
+"""
+
+
+def test_the_interpreted_simulator_fills_a_status_message():
+    """Before: interpreted, the traction flags were numpy bools, and building sim_status aborted sim_node
+    (`PyBool_Check(field)` failed) at its first status."""
+    done = subprocess.run([sys.executable, "-c", STATUS], env={**os.environ, "TWBR_JIT": "off"}, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[1] == "bool"

@@ -215,7 +215,9 @@ class Simulator:
         lifted = slipping = False
         if not self.fallen:
             wheel_loads(self.p, self.state, ds, loads)
-            lifted, slipping = traction_flags(loads, self.friction)
+            # bool(): interpreted (TWBR_JIT=off) the kernel's comparisons are numpy bools, which a message's
+            # bool field refuses
+            lifted, slipping = (bool(flag) for flag in traction_flags(loads, self.friction))
         self.traction.add(lifted, slipping)
         sample = SensorSample(imu, encoders, loads, lifted, slipping)
         self._sample = (self.step_count, sample)
