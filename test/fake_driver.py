@@ -18,7 +18,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.params import defaults
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, to_stamp
 from twbr_msgs.msg import WheelTorques
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import robot_params
@@ -38,15 +38,27 @@ class FakeDriver(Node):
         self.pub_imu = None if fault == "missing_imu" else self.create_publisher(imu_type, "imu", SENSOR_PUB_QOS)
         self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
         self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
+        # A sample clock, as a driver's hardware has: each sample stamped at its own instant, and samples a
+        # loaded host made late are published late, not skipped (an rclpy timer skips missed periods).
+        self._period_ns = round(1e9 / cfg["publish_rate"])
+        self._next_ns: int | None = None
         self.create_timer(1.0 / cfg["publish_rate"], self._tick)
 
     def _on_command(self, msg: WheelTorques) -> None:
         self.sim.offer_command(self.sim.time, msg.left, msg.right)
 
     def _tick(self) -> None:
+        now = self.get_clock().now().nanoseconds
+        if self._next_ns is None:
+            self._next_ns = now
+        while self._next_ns <= now:
+            self._sample(self._next_ns)
+            self._next_ns += self._period_ns
+
+    def _sample(self, stamp_ns: int) -> None:
         self.sim.advance(self.sim.steps_per_publish)
         s = self.sim.state
-        stamp = self.get_clock().now().to_msg()
+        stamp = to_stamp(stamp_ns)
         if self.fault == "unstamped":
             stamp.sec, stamp.nanosec = 0, 0
         odom = Odometry()
