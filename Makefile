@@ -38,6 +38,7 @@ bench: setup
 	@mkdir -p $(BENCH_OUT)
 	@$(RUN) python benchmarks/bench_dynamics.py $(BENCH_OUT)/dynamics.json
 	@$(RUN) python benchmarks/bench_batch.py --json $(BENCH_OUT)/batch.json
+	@$(RUN) python benchmarks/bench_roofline.py --json $(BENCH_OUT)/roofline.json
 	@$(RUN) python benchmarks/bench_graph.py --json $(BENCH_OUT)/graph.json
 	@$(RUN) python benchmarks/bench_lockstep.py --json $(BENCH_OUT)/lockstep.json
 	@$(RUN) python benchmarks/bench_control_loop.py --json $(BENCH_OUT)/control_loop.json
