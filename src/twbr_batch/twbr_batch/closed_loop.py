@@ -7,6 +7,7 @@ the same cores as the node graph, thousands of times faster.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
@@ -18,6 +19,7 @@ from twbr_common.timing import Decimator
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.controller_params import resolve as resolve_controller
 from twbr_control.estimator import PitchEstimator, uses_estimator
+from twbr_control.state_sync import VelocityCommand
 from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
@@ -132,27 +134,26 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
     resolve_planner(planner)  # refused here, before a run starts, when invalid on its own
     rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
     due = Decimator(rate)
-    held: dict[str, Any] = {"cmd": (0.0, 0.0), "core": None, "since": None, "new": False}
+    # Each plan takes effect from the next state on, as controller_node takes a cmd_vel: the same class.
+    # No message is lost here, so the command never times out.
+    command = VelocityCommand(timeout=math.inf)
+    held: dict[str, Any] = {"core": None}
 
-    def reference(t: float, sim: Simulator) -> tuple[float, float, float]:
+    def reference(t: float, sim: Simulator) -> tuple[float, float, float | None]:
         if held["core"] is None:
             held["core"] = ApfPlanner(resolve_planner(planner, sim.scenario), rate)
-        core = held["core"]
-        if held["new"]:  # the first sample a command applies to
-            held["since"], held["new"] = t, False
-        if not due.due(t):
-            return (*held["cmd"], held["since"])
-        odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
-        world = sim.world
-        state = world.target() if world is not None else None
-        target = Target(state.x, state.y, *state.velocity) if state is not None else None
-        obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in world.obstacles()]) if world
-                     else Obstacles.empty())
-        out = core.step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
-        if log is not None:
-            log.append(out)
-        # In effect from the next state on, as controller_node takes a cmd_vel (state_sync.VelocityCommand).
-        in_effect, held["cmd"], held["new"] = held["cmd"], (out.velocity_cmd, out.yaw_rate_cmd), True
-        return (*in_effect, held["since"])
+        v_ref, w_ref, never_commanded = command.at(t)
+        if due.due(t):
+            odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
+            world = sim.world
+            state = world.target() if world is not None else None
+            target = Target(state.x, state.y, *state.velocity) if state is not None else None
+            obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in world.obstacles()])
+                         if world else Obstacles.empty())
+            out = held["core"].step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
+            if log is not None:
+                log.append(out)
+            command.offer(t, out.velocity_cmd, out.yaw_rate_cmd)
+        return v_ref, w_ref, None if never_commanded else command.since
 
     return reference
