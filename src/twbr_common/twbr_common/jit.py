@@ -74,6 +74,10 @@ if COMPILED:
     if not os.environ.get("NUMBA_CACHE_DIR"):
         numba.config.CACHE_DIR = str(cache_dir())
     kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True)
+    # For loops over the robots of a lane group: a division is not checked for zero (numpy's rule: inf or
+    # nan), since the check's exception would be an exit from the loop and keep it from being vectorised.
+    # Only equations whose denominators cannot vanish (a mass matrix, an inertia) are compiled with it.
+    lane_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, error_model="numpy")
     parallel_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, parallel=True)
     prange = numba.prange
     parallel_chunksize = numba.parallel_chunksize
@@ -82,6 +86,7 @@ else:
         return function
 
     parallel_kernel = kernel
+    lane_kernel = kernel
     prange = range
 
     def parallel_chunksize(_size: int) -> contextlib.AbstractContextManager:

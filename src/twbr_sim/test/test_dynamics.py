@@ -189,10 +189,15 @@ def test_default_motor_needs_no_sub_steps(p):
     assert dyn.substeps(robot_params({"current_loop_gain": 0.0}), H) == 1
 
 
-def test_batch_steps_equal_single_steps(p):
+@pytest.mark.parametrize("n", [7, 2 * dyn.LANES + 7])
+def test_batch_steps_equal_single_steps(p, n):
+    # Whole lane groups and a partial one; in the second group one robot needs two RK4 sub-steps per step
+    # (a faster electrical pole), so that group steps robot by robot.
     rng = np.random.default_rng(0)
-    n = 7
     params = np.tile(p, (n, 1)) * rng.uniform(0.8, 1.2, (n, p.size))
+    if n > dyn.LANES:
+        params[dyn.LANES + 3] = robot_params({"armature_inductance": 0.0006})
+        assert dyn.substeps(params[dyn.LANES + 3], H) == 2
     states = np.zeros((n, dyn.N_STATE))
     states[:, dyn.S_TH] = rng.uniform(-0.1, 0.1, n)
     commands = rng.uniform(-2, 2, (n, 2))

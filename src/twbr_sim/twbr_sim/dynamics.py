@@ -1,8 +1,10 @@
 """Nonlinear TWBR dynamics with a DC motor and current-loop driver per wheel (dynamics.md).
 
-One implementation serves every user: `rk4_step` advances one robot in place and is compiled with
-numba, so the simulator node calls it at 1 kHz, `step_batch` loops the very same kernel over a leading
-robot axis in parallel for batch studies, and the benchmarks time both. Nothing here allocates per step.
+One implementation serves every user: the equations are written for one lane of a structure of arrays
+(`lane_derivatives`). `rk4_step` advances one robot in place (a group of one lane), so the simulator node
+calls it at 1 kHz; `step_batch` steps groups of robots together through the same equations (`rk4_lanes`,
+loops over the robots that the compiler vectorises), in parallel; the benchmarks time both. Nothing here
+allocates per step.
 
 State vector (S_* indices): forward travel x, its rate, pitch theta, its rate, yaw psi, its rate, the
 axle centre's position (x_c, y_c) in odom, the wheel angles gamma_L, gamma_R, and the two armature
@@ -15,7 +17,7 @@ import math
 
 import numpy as np
 
-from twbr_common.jit import kernel, parallel_kernel, prange
+from twbr_common.jit import kernel, lane_kernel, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_sim.robot_params import (
     D_A,
@@ -79,91 +81,135 @@ WORK_ROWS = 5
 RK4_SAFE_H_LAMBDA = 2.0
 
 _jit = kernel
+_lane = lane_kernel
+
+
+# The equations are written once, for lane i of a structure of arrays: p[k, i] is parameter k of robot i,
+# s[k, j] state k of robot j. The batch steps a group of robots together with them, in loops over the
+# robots that the compiler vectorises; the scalar kernels below call them on one robot, seen as a group of
+# one (column(p), lane 0), so every robot of every user runs the very same equations.
 
 
 @_jit
-def mechanical_accelerations(p, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right):
-    """(x_ddot, pitch_ddot, yaw_ddot) of the 3-DOF model for given wheel torques [N*m]."""
+def column(a):
+    """A vector as a structure of arrays of one lane: a (n, 1) view of it."""
+    return a[:, None]
+
+
+@_lane
+def lane_accelerations(p, i, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right):
+    """(x_ddot, pitch_ddot, yaw_ddot) of the 3-DOF model of lane i for given wheel torques [N*m]."""
     s = math.sin(pitch)
     c = math.cos(pitch)
-    dd = p[D_DD]
-    a = p[D_A]
-    ml = p[D_ML]
+    dd = p[D_DD, i]
+    a = p[D_A, i]
+    ml = p[D_ML, i]
     b = ml * c
-    c2 = p[D_C2]
-    slip = x_dot * p[D_INV_R] - pitch_rate
+    c2 = p[D_C2, i]
+    slip = x_dot * p[D_INV_R, i] - pitch_rate
     torque_sum = torque_left + torque_right
-    rhs_x = torque_sum * p[D_INV_R] - p[D_CA2_R] * slip + ml * (yaw_rate * yaw_rate + pitch_rate * pitch_rate) * s
-    rhs_th = -torque_sum + 2.0 * p[P_CA] * slip - dd * yaw_rate * yaw_rate * s * c + p[D_MGL] * s
+    rhs_x = (torque_sum * p[D_INV_R, i] - p[D_CA2_R, i] * slip
+             + ml * (yaw_rate * yaw_rate + pitch_rate * pitch_rate) * s)
+    rhs_th = -torque_sum + 2.0 * p[P_CA, i] * slip - dd * yaw_rate * yaw_rate * s * c + p[D_MGL, i] * s
     inv_det = 1.0 / (a * c2 - b * b)
     x_ddot = (c2 * rhs_x - b * rhs_th) * inv_det
     pitch_ddot = (a * rhs_th - b * rhs_x) * inv_det
-    yaw_inertia = p[D_YAW_INERTIA0] - dd * s * s
+    yaw_inertia = p[D_YAW_INERTIA0, i] - dd * s * s
     yaw_ddot = (
-        p[D_D_2R] * (torque_right - torque_left)
-        - p[D_YAW_DAMPING] * yaw_rate
+        p[D_D_2R, i] * (torque_right - torque_left)
+        - p[D_YAW_DAMPING, i] * yaw_rate
         - (ml * x_dot - 2.0 * dd * pitch_rate * c) * yaw_rate * s
     ) / yaw_inertia
     return x_ddot, pitch_ddot, yaw_ddot
 
 
-@_jit
-def driver_voltage(p, torque_cmd, current, relative_speed):
-    """Motor-driver current loop: the armature voltage [V] that makes the motor deliver torque_cmd.
+@_lane
+def lane_driver_voltage(p, i, torque_cmd, current, relative_speed):
+    """Motor-driver current loop of lane i: the armature voltage [V] that makes the motor deliver torque_cmd.
 
     i_ref = T_cmd / (N k) limited to +-I_max; V = R i_ref + back-EMF feed-forward + k_i (i_ref - i),
     limited to +-V_max. `relative_speed` is the wheel's speed relative to the body [rad/s].
     """
-    i_max = p[P_IMAX]
-    i_ref = min(max(torque_cmd * p[D_INV_NK], -i_max), i_max)
-    v = p[P_RA] * i_ref + p[D_NK] * relative_speed + p[P_KI] * (i_ref - current)
-    v_max = p[P_VMAX]
+    i_max = p[P_IMAX, i]
+    i_ref = min(max(torque_cmd * p[D_INV_NK, i], -i_max), i_max)
+    v = p[P_RA, i] * i_ref + p[D_NK, i] * relative_speed + p[P_KI, i] * (i_ref - current)
+    v_max = p[P_VMAX, i]
     return min(max(v, -v_max), v_max)
+
+
+@_lane
+def lane_current_rate(p, i, voltage, current, relative_speed):
+    """di/dt [A/s] of lane i's armature: L di/dt + R i = V - k N (gamma_dot - theta_dot)."""
+    return (voltage - p[P_RA, i] * current - p[D_NK, i] * relative_speed) * p[D_INV_LA, i]
+
+
+@_lane
+def lane_wheel_rates(p, i, x_dot, yaw_rate):
+    """(gamma_dot_L, gamma_dot_R) of lane i from pure rolling [rad/s]."""
+    half = yaw_rate * p[D_HALF_D, i]
+    return (x_dot - half) * p[D_INV_R, i], (x_dot + half) * p[D_INV_R, i]
+
+
+@_lane
+def lane_derivatives(p, i, s, cmd_left, cmd_right, out):
+    """Time derivative of lane i's state s[:, i] under commanded wheel torques, written into out[:, i]."""
+    x_dot = s[S_XD, i]
+    pitch_rate = s[S_THD, i]
+    yaw = s[S_PSI, i]
+    yaw_rate = s[S_PSID, i]
+    rate_l, rate_r = lane_wheel_rates(p, i, x_dot, yaw_rate)
+    rel_l = rate_l - pitch_rate
+    rel_r = rate_r - pitch_rate
+    i_l = s[S_IL, i]
+    i_r = s[S_IR, i]
+    v_l = lane_driver_voltage(p, i, cmd_left, i_l, rel_l)
+    v_r = lane_driver_voltage(p, i, cmd_right, i_r, rel_r)
+    n_k = p[D_NK, i]
+    x_ddot, pitch_ddot, yaw_ddot = lane_accelerations(
+        p, i, x_dot, s[S_TH, i], pitch_rate, yaw_rate, n_k * i_l, n_k * i_r
+    )
+    out[S_X, i] = x_dot
+    out[S_XD, i] = x_ddot
+    out[S_TH, i] = pitch_rate
+    out[S_THD, i] = pitch_ddot
+    out[S_PSI, i] = yaw_rate
+    out[S_PSID, i] = yaw_ddot
+    out[S_XC, i] = x_dot * math.cos(yaw)
+    out[S_YC, i] = x_dot * math.sin(yaw)
+    out[S_GL, i] = rate_l
+    out[S_GR, i] = rate_r
+    out[S_IL, i] = lane_current_rate(p, i, v_l, i_l, rel_l)
+    out[S_IR, i] = lane_current_rate(p, i, v_r, i_r, rel_r)
+
+
+@_jit
+def mechanical_accelerations(p, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right):
+    """(x_ddot, pitch_ddot, yaw_ddot) of the 3-DOF model for given wheel torques [N*m]."""
+    return lane_accelerations(column(p), 0, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right)
+
+
+@_jit
+def driver_voltage(p, torque_cmd, current, relative_speed):
+    """The motor driver's armature voltage [V] for torque_cmd (lane_driver_voltage)."""
+    return lane_driver_voltage(column(p), 0, torque_cmd, current, relative_speed)
 
 
 @_jit
 def current_rate(p, voltage, current, relative_speed):
-    """di/dt [A/s] of the armature: L di/dt + R i = V - k N (gamma_dot - theta_dot)."""
-    return (voltage - p[P_RA] * current - p[D_NK] * relative_speed) * p[D_INV_LA]
+    """di/dt [A/s] of the armature (lane_current_rate)."""
+    return lane_current_rate(column(p), 0, voltage, current, relative_speed)
 
 
 @_jit
 def wheel_rates(p, x_dot, yaw_rate):
     """(gamma_dot_L, gamma_dot_R) from pure rolling [rad/s]."""
-    half = yaw_rate * p[D_HALF_D]
-    return (x_dot - half) * p[D_INV_R], (x_dot + half) * p[D_INV_R]
+    return lane_wheel_rates(column(p), 0, x_dot, yaw_rate)
 
 
 @_jit
 def derivatives(p, s, cmd_left, cmd_right, out):
     """Time derivative of state `s` under commanded wheel torques, written into `out`."""
-    x_dot = s[S_XD]
-    pitch_rate = s[S_THD]
-    yaw = s[S_PSI]
-    yaw_rate = s[S_PSID]
-    rate_l, rate_r = wheel_rates(p, x_dot, yaw_rate)
-    rel_l = rate_l - pitch_rate
-    rel_r = rate_r - pitch_rate
-    i_l = s[S_IL]
-    i_r = s[S_IR]
-    v_l = driver_voltage(p, cmd_left, i_l, rel_l)
-    v_r = driver_voltage(p, cmd_right, i_r, rel_r)
-    n_k = p[D_NK]
-    x_ddot, pitch_ddot, yaw_ddot = mechanical_accelerations(
-        p, x_dot, s[S_TH], pitch_rate, yaw_rate, n_k * i_l, n_k * i_r
-    )
-    out[S_X] = x_dot
-    out[S_XD] = x_ddot
-    out[S_TH] = pitch_rate
-    out[S_THD] = pitch_ddot
-    out[S_PSI] = yaw_rate
-    out[S_PSID] = yaw_ddot
-    out[S_XC] = x_dot * math.cos(yaw)
-    out[S_YC] = x_dot * math.sin(yaw)
-    out[S_GL] = rate_l
-    out[S_GR] = rate_r
-    out[S_IL] = current_rate(p, v_l, i_l, rel_l)
-    out[S_IR] = current_rate(p, v_r, i_r, rel_r)
+    lane_derivatives(column(p), 0, column(s), cmd_left, cmd_right, column(out))
 
 
 @_jit
@@ -175,24 +221,27 @@ def substeps(p, h):
 
 @_jit
 def _rk4(p, s, cmd_left, cmd_right, h, work):
-    k1 = work[0]
-    k2 = work[1]
-    k3 = work[2]
-    k4 = work[3]
-    trial = work[4]
+    # One robot as a group of one lane: the views are made once per step, not per evaluation.
+    pc = column(p)
+    sc = column(s)
+    k1 = column(work[0])
+    k2 = column(work[1])
+    k3 = column(work[2])
+    k4 = column(work[3])
+    trial = column(work[4])
     n = s.shape[0]
-    derivatives(p, s, cmd_left, cmd_right, k1)
+    lane_derivatives(pc, 0, sc, cmd_left, cmd_right, k1)
     for j in range(n):
-        trial[j] = s[j] + 0.5 * h * k1[j]
-    derivatives(p, trial, cmd_left, cmd_right, k2)
+        trial[j, 0] = s[j] + 0.5 * h * k1[j, 0]
+    lane_derivatives(pc, 0, trial, cmd_left, cmd_right, k2)
     for j in range(n):
-        trial[j] = s[j] + 0.5 * h * k2[j]
-    derivatives(p, trial, cmd_left, cmd_right, k3)
+        trial[j, 0] = s[j] + 0.5 * h * k2[j, 0]
+    lane_derivatives(pc, 0, trial, cmd_left, cmd_right, k3)
     for j in range(n):
-        trial[j] = s[j] + h * k3[j]
-    derivatives(p, trial, cmd_left, cmd_right, k4)
+        trial[j, 0] = s[j] + h * k3[j, 0]
+    lane_derivatives(pc, 0, trial, cmd_left, cmd_right, k4)
     for j in range(n):
-        s[j] += (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        s[j] += (h / 6.0) * (k1[j, 0] + 2.0 * k2[j, 0] + 2.0 * k3[j, 0] + k4[j, 0])
 
 
 @_jit
@@ -227,14 +276,80 @@ def simulate(p, s, cmd_left, cmd_right, h, n_steps, work):
         rk4_step(p, s, cmd_left, cmd_right, h, work)
 
 
+@_lane
+def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes):
+    """One RK4 step of length h of lanes 0..lanes-1 in place: p (N_PARAMS, L), s (N_STATE, L), the
+    commands (L,), work (WORK_ROWS, N_STATE, L). The same stages as _rk4, each a loop over the robots."""
+    k1 = work[0]
+    k2 = work[1]
+    k3 = work[2]
+    k4 = work[3]
+    trial = work[4]
+    for i in range(lanes):
+        lane_derivatives(p, i, s, cmd_left[i], cmd_right[i], k1)
+    for j in range(N_STATE):
+        for i in range(lanes):
+            trial[j, i] = s[j, i] + 0.5 * h * k1[j, i]
+    for i in range(lanes):
+        lane_derivatives(p, i, trial, cmd_left[i], cmd_right[i], k2)
+    for j in range(N_STATE):
+        for i in range(lanes):
+            trial[j, i] = s[j, i] + 0.5 * h * k2[j, i]
+    for i in range(lanes):
+        lane_derivatives(p, i, trial, cmd_left[i], cmd_right[i], k3)
+    for j in range(N_STATE):
+        for i in range(lanes):
+            trial[j, i] = s[j, i] + h * k3[j, i]
+    for i in range(lanes):
+        lane_derivatives(p, i, trial, cmd_left[i], cmd_right[i], k4)
+    for j in range(N_STATE):
+        for i in range(lanes):
+            s[j, i] += (h / 6.0) * (k1[j, i] + 2.0 * k2[j, i] + 2.0 * k3[j, i] + k4[j, i])
+
+
+LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1/L2 cache
+
+
 @parallel_kernel
 def step_batch(params, states, commands, h, n_steps):
-    """Advance N robots by n_steps each: params (N, N_PARAMS), states (N, N_STATE), commands (N, 2)."""
+    """Advance N robots by n_steps each: params (N, N_PARAMS), states (N, N_STATE), commands (N, 2).
+
+    Groups of LANES robots step together (rk4_lanes); a group whose robots need different numbers of
+    sub-steps (substeps) steps robot by robot instead, so every robot's result is rk4_step's to the bit.
+    """
     n = states.shape[0]
-    for i in prange(n):
-        work = np.empty((WORK_ROWS, N_STATE))
-        for _ in range(n_steps):
-            rk4_step(params[i], states[i], commands[i, 0], commands[i, 1], h, work)
+    n_params = params.shape[1]
+    for g in prange((n + LANES - 1) // LANES):
+        lo = g * LANES
+        lanes = min(n, lo + LANES) - lo
+        n_sub = substeps(params[lo], h)
+        same = True
+        for i in range(lo, lo + lanes):
+            same = same and substeps(params[i], h) == n_sub
+        if not same:
+            work = np.empty((WORK_ROWS, N_STATE))
+            for i in range(lo, lo + lanes):
+                for _ in range(n_steps):
+                    rk4_step(params[i], states[i], commands[i, 0], commands[i, 1], h, work)
+            continue
+        p = np.empty((n_params, LANES))
+        s = np.empty((N_STATE, LANES))
+        left = np.empty(LANES)
+        right = np.empty(LANES)
+        work = np.empty((WORK_ROWS, N_STATE, LANES))
+        for i in range(lanes):
+            for k in range(n_params):
+                p[k, i] = params[lo + i, k]
+            for k in range(N_STATE):
+                s[k, i] = states[lo + i, k]
+            left[i] = commands[lo + i, 0]
+            right[i] = commands[lo + i, 1]
+        hs = h / n_sub
+        for _ in range(n_steps * n_sub):
+            rk4_lanes(p, s, left, right, hs, work, lanes)
+        for i in range(lanes):
+            for k in range(N_STATE):
+                states[lo + i, k] = s[k, i]
 
 
 def new_work() -> np.ndarray:
