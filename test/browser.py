@@ -12,6 +12,7 @@ import socket
 import subprocess
 import time
 import urllib.request
+from collections.abc import Callable
 from pathlib import Path
 
 
@@ -25,7 +26,10 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def screenshot(url: str, out: Path, wait_s: float, size: tuple[int, int] = (1280, 800)) -> Path:
+def screenshot(url: str, out: Path, wait_s: float, size: tuple[int, int] = (1280, 800),
+               accept: Callable[[Path], bool] | None = None, patience_s: float = 0.0) -> Path:
+    """The page after wait_s seconds; with `accept`, shot again every 2 s for up to patience_s more seconds
+    until it accepts one (a loaded host draws late); the last shot is in `out`."""
     from websockets.sync.client import connect
 
     port = _free_port()
@@ -59,7 +63,12 @@ def screenshot(url: str, out: Path, wait_s: float, size: tuple[int, int] = (1280
             call("Page.enable")
             call("Page.navigate", url=url)
             time.sleep(wait_s)
-            out.write_bytes(base64.b64decode(call("Page.captureScreenshot", format="png")["data"]))
+            deadline = time.monotonic() + patience_s
+            while True:
+                out.write_bytes(base64.b64decode(call("Page.captureScreenshot", format="png")["data"]))
+                if accept is None or accept(out) or time.monotonic() > deadline:
+                    break
+                time.sleep(2.0)
     finally:
         proc.terminate()
         try:

@@ -69,8 +69,23 @@ def test_the_served_page_draws_the_map_in_a_browser(launch, tmp_path, monkeypatc
     launch("twbr_planner", "planner_node", "-p", "method:=paper", params=("planner.yaml",))
     launch("twbr_sim", "sim_node", "-p", "scenario:=static", "-p", "wait_for_subscribers:=3",
            "-p", "lockstep_planner_rate:=20.0", params=("robot.yaml", "sim.yaml"))
-    shot = np.asarray(Image.open(screenshot(url, tmp_path / "viewer.png", wait_s=25.0)).convert("RGB")).astype(int)
+    path = screenshot(url, tmp_path / "viewer.png", wait_s=20.0, accept=map_drawn, patience_s=40.0)
+    path_share, field_share = map_colours(path)
+    assert map_drawn(path), f"the map panel shows {100 * path_share:.2f} % path, {100 * field_share:.2f} % field"
+
+
+def map_colours(path) -> tuple[float, float]:
+    """The shares of the map panel (the blueprint's left column) drawn in the robot path's red and in the
+    other colours (the field's viridis, the target, the arrows); a blank canvas is grey: 0 and 0."""
+    shot = np.asarray(Image.open(path).convert("RGB")).astype(int)
     height, width, _ = shot.shape
-    map_panel = shot[int(0.1 * height):int(0.65 * height), : int(0.6 * width)]  # the blueprint's left column
-    coloured = (map_panel.max(axis=2) - map_panel.min(axis=2)) > 60  # the field's viridis, the paths, the arrows
-    assert coloured.mean() > 0.05, f"the map panel is {100 * coloured.mean():.2f} % coloured: blank?"
+    panel = shot[int(0.1 * height):int(0.65 * height), : int(0.6 * width)]
+    coloured = (panel.max(axis=2) - panel.min(axis=2)) > 60
+    red = (panel[..., 0] > 150) & (panel[..., 1] < 90) & (panel[..., 2] < 90)
+    return float(red.mean()), float((coloured & ~red).mean())
+
+
+def map_drawn(path) -> bool:
+    # Measured on drawn maps: path 0.25-0.30 %, field 1.7-4.8 % (the camera's framing varies); blank: 0, 0.
+    path_share, field_share = map_colours(path)
+    return path_share > 0.001 and field_share > 0.005
