@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.jit import kernel, parallel_chunksize, parallel_kernel, prange
+from twbr_common.jit import get_num_threads, kernel, parallel_chunksize, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due
@@ -50,7 +50,10 @@ from twbr_planner.planner import plan_step
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.dynamics import (
+    LANES,
     N_STATE,
+    S_IL,
+    S_IR,
     S_PSI,
     S_PSID,
     S_TH,
@@ -62,6 +65,8 @@ from twbr_sim.dynamics import (
     advance_upright,
     derivatives,
     initial_state,
+    rk4_lanes,
+    substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
@@ -71,7 +76,7 @@ from twbr_sim.imu import IMU_STREAM, N_READING, R_ACCEL, R_GYRO, R_PITCH, imu_in
 from twbr_sim.imu import new_memory as new_imu_memory
 from twbr_sim.imu import settings_vector as imu_vector
 from twbr_sim.noise import new_generator
-from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.robot_params import P_FALL, P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
 from twbr_sim.simulator import SENSOR_SPECS, SIM_SPECS, steps_per_publish
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
@@ -171,6 +176,244 @@ T_VELOCITY_TRUE = TRACE_LAYOUT["velocity_true"]  # the axle's [m/s] (velocity: w
 N_TRACE = len(TRACE_LAYOUT)
 
 
+# What a robot's run carries from one sample to the next besides its result row (RESULT_LAYOUT, which
+# holds the running tallies): the sample index, the wheel torques being applied [N*m], the traction flags
+# and their sample counts, the world's and the planner's next due times [s], the references in effect and
+# the planner's next ones [m/s, rad/s], the stamp from which they apply [s], whether a plan is new and
+# whether any command has arrived.
+LOOP_LAYOUT = Layout((
+    "k", "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
+    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded",
+))
+L_K = LOOP_LAYOUT["k"]
+L_LEFT = LOOP_LAYOUT["left"]
+L_RIGHT = LOOP_LAYOUT["right"]
+L_LIFTED = LOOP_LAYOUT["lifted"]
+L_SLIPPING = LOOP_LAYOUT["slipping"]
+L_LIFTED_SAMPLES = LOOP_LAYOUT["lifted_samples"]
+L_SLIPPING_SAMPLES = LOOP_LAYOUT["slipping_samples"]
+L_WORLD_NEXT = LOOP_LAYOUT["world_next"]
+L_PLAN_NEXT = LOOP_LAYOUT["plan_next"]
+L_V_REF = LOOP_LAYOUT["v_ref"]
+L_W_REF = LOOP_LAYOUT["w_ref"]
+L_NEXT_V = LOOP_LAYOUT["next_v"]
+L_NEXT_W = LOOP_LAYOUT["next_w"]
+L_COMMAND_STAMP = LOOP_LAYOUT["command_stamp"]
+L_NEW_PLAN = LOOP_LAYOUT["new_plan"]
+L_COMMANDED = LOOP_LAYOUT["commanded"]
+N_LOOP = len(LOOP_LAYOUT)
+
+
+@kernel
+def new_memories(n, run, n_obstacles):
+    """Per-robot memories for n robots of a run: loop (LOOP_LAYOUT), controller state and outputs, planner
+    memory, progress ring and outputs, world tally, obstacle positions and distances, detection flags and
+    where each obstacle came into range, the state's derivative, the IMU reading, odometry, wheel loads and
+    the estimator's memory."""
+    return (
+        np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
+        np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
+        np.zeros((n, N_PLANNER_OUTPUTS)), np.zeros((n, N_TALLY)), np.zeros((n, n_obstacles, 2)),
+        np.zeros((n, n_obstacles)), np.zeros((n, n_obstacles), dtype=np.bool_), np.zeros((n, n_obstacles, 6)),
+        np.zeros((n, N_STATE)), np.zeros((n, N_READING)), np.zeros((n, N_ENCODER_OUTPUTS)),
+        np.zeros((n, N_TRACTION_OUTPUTS)), np.zeros((n, N_ESTIMATOR_MEMORY)),
+    )
+
+
+@kernel
+def robot_begin(j, run, result, memories, imu_c, imu_m, generator):
+    """Set robot j of `memories` to the start of a run (its result row holds the running tallies)."""
+    loop, control, _out, memory, ring, _plan, tally, _pos, _dist, detected, detected_at, _d, _r, _o, _l, \
+        estimator_m = memories
+    loop[j, :] = 0.0
+    loop[j, L_WORLD_NEXT] = -math.inf
+    loop[j, L_PLAN_NEXT] = -math.inf
+    loop[j, L_COMMANDED] = 0.0 if run[U_HAS_TARGET] != 0.0 else 1.0  # a planner's first command applies
+    control[j, :] = 0.0                                                # from the second sample
+    control[j, K_ENABLED] = 1.0
+    memory[j, :] = 0.0
+    ring[j] = 0.0
+    tally[j, :] = 0.0
+    detected[j, :] = False
+    detected_at[j] = 0.0
+    estimator_m[j, :] = 0.0
+    result[:] = 0.0
+    result[Z_REACHED_AT] = math.nan
+    result[Z_MIN_CLEARANCE] = math.inf
+    result[Z_PITCH_MIN] = math.inf
+    result[Z_PITCH_MAX] = -math.inf
+    result[Z_HIT_OBSTACLE] = -1.0
+    result[Z_DETECTED:Z_DETECTED + 6] = math.nan
+    result[Z_FINAL_DISTANCE] = math.nan
+    if run[U_SENSORS] != 0.0:
+        imu_init(imu_c, imu_m, generator)
+
+
+@kernel
+def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result, trace,
+                 imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, j):
+    """One sample of robot j's run, as run_closed_loop's: sense the state, assess the world, plan, control.
+    True when the run ends here; else the torques to apply until the next sample are in loop[j]."""
+    loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
+        derivative, reading, odometry, loads, estimator_m = memories
+    lp = loop[j]
+    h = run[U_H]
+    step_count = result[Z_PHYSICS_STEPS]
+    k = int(lp[L_K])
+    t = step_count * h
+    has_target = run[U_HAS_TARGET] != 0.0
+    sensors = run[U_SENSORS] != 0.0
+    estimate = run[U_ESTIMATE] != 0.0
+    friction = run[U_FRICTION]
+    x = state[S_XC]  # the truth, for the world's assessment
+    y = state[S_YC]
+    pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
+    pitch_rate = state[S_THD]
+    odom_x = x  # what odom says, for the planner and the velocity loop
+    odom_y = y
+    odom_yaw = state[S_PSI]
+    odom_velocity = state[S_XD]
+    yaw_rate = state[S_PSID]
+    if sensors or friction > 0.0:
+        derivatives(p, state, lp[L_LEFT], lp[L_RIGHT], derivative[j])  # under the command applied now
+    if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
+        imu_sample(p, imu_c, imu_m, generator, state, derivative[j], reading[j])
+        encoder_sample(p, encoder_c, encoder_m, state, odometry[j])
+        odom_x = odometry[j, J_X]
+        odom_y = odometry[j, J_Y]
+        odom_yaw = odometry[j, J_YAW]
+        odom_velocity = odometry[j, J_VELOCITY]
+        yaw_rate = odometry[j, J_YAW_RATE]
+        pitch = reading[j, R_PITCH]
+        pitch_rate = reading[j, R_GYRO + 1]
+        if estimate:
+            estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, R_ACCEL],
+                             reading[j, R_ACCEL + 2], odom_velocity)
+            pitch = estimator_m[j, E_PITCH]
+            pitch_rate = estimator_m[j, E_PITCH_RATE]
+    if friction > 0.0:
+        wheel_loads(p, state, derivative[j], loads[j])
+        now_lifted, now_slipping = traction_flags(loads[j], friction)
+        result[Z_LIFT_EVENTS] += 1 if now_lifted and lp[L_LIFTED] == 0.0 else 0
+        result[Z_SLIP_EVENTS] += 1 if now_slipping and lp[L_SLIPPING] == 0.0 else 0
+        lp[L_LIFTED_SAMPLES] += 1 if now_lifted else 0
+        lp[L_SLIPPING_SAMPLES] += 1 if now_slipping else 0
+        lp[L_LIFTED] = 1.0 if now_lifted else 0.0
+        lp[L_SLIPPING] = 1.0 if now_slipping else 0.0
+    result[Z_PITCH_ERROR_SQUARES] += (pitch - state[S_TH]) ** 2
+    # the velocity loop's speed: odom's, or the estimator's fused one
+    velocity = estimator_m[j, E_VELOCITY_ESTIMATE] if estimate else odom_velocity
+    if is_due(t, lp[L_WORLD_NEXT]):  # the world's assessment, at the world rate
+        lp[L_WORLD_NEXT] = next_due(t, lp[L_WORLD_NEXT], run[U_WORLD_PERIOD])
+        obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions[j])
+        collisions_before = tally[j, W_COLLISIONS]
+        clearance, hit = assess_obstacles(positions[j], radii, p[P_ROBOT_RADIUS], x, y, tally[j])
+        result[Z_MIN_CLEARANCE] = min(result[Z_MIN_CLEARANCE], clearance)
+        if result[Z_HIT_OBSTACLE] < 0 and tally[j, W_COLLISIONS] > collisions_before:
+            result[Z_HIT_OBSTACLE] = hit
+            if detected[j, hit]:
+                result[Z_DETECTED:Z_DETECTED + 6] = detected_at[j, hit]
+            else:  # it came into range and hit between two plans: the robot now
+                result[Z_DETECTED:Z_DETECTED + 6] = (t, x, y, state[S_PSI], state[S_XD], state[S_PSID])
+        if has_target and math.isnan(result[Z_REACHED_AT]):
+            tx, ty, _heading, _vx, _vy = target_at(segment, run[U_TARGET_SPEED], t)
+            if math.hypot(tx - x, ty - y) <= run[U_CAPTURE_RADIUS]:
+                result[Z_REACHED_AT] = t
+    if has_target:
+        if is_due(t, lp[L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
+            lp[L_PLAN_NEXT] = next_due(t, lp[L_PLAN_NEXT], run[U_PLANNER_PERIOD])
+            tx, ty, _heading, tvx, tvy = target_at(segment, run[U_TARGET_SPEED], t)
+            obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions[j])
+            plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
+                      tvy, positions[j], obstacle_velocity, radii, distances[j])
+            lp[L_NEXT_V] = plan_out[j, Q_V]
+            lp[L_NEXT_W] = plan_out[j, Q_OMEGA]
+            lp[L_NEW_PLAN] = 1.0
+            stuck = plan_out[j, Q_MODE] == STUCK
+            result[Z_STUCK_AT_END] = 1.0 if stuck else 0.0
+            if stuck:
+                result[Z_STUCK_STEPS] += 1
+            result[Z_FINAL_DISTANCE] = plan_out[j, Q_DISTANCE]
+            for o in range(radii.shape[0]):
+                inside = distances[j, o] <= a[A_RHO_O]
+                if inside and not detected[j, o]:
+                    detected_at[j, o, 0] = t
+                    detected_at[j, o, 1] = x
+                    detected_at[j, o, 2] = y
+                    detected_at[j, o, 3] = state[S_PSI]
+                    detected_at[j, o, 4] = state[S_XD]
+                    detected_at[j, o, 5] = state[S_PSID]
+                detected[j, o] = inside
+    else:
+        v_ref, w_ref = command_profile_at(profile[0], profile[1], profile[2], t)
+        lp[L_V_REF] = v_ref
+        lp[L_W_REF] = w_ref
+        lp[L_COMMAND_STAMP] = t  # a command profile: a command at every sample
+    hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
+    out = control_out[j]
+    cascade_compute(c, control[j], out, t, lp[L_V_REF], lp[L_W_REF], velocity, yaw_rate, pitch, pitch_rate,
+                    lp[L_COMMANDED] == 0.0, hold, lp[L_COMMAND_STAMP])
+    true_pitch = state[S_TH]
+    result[Z_PITCH_MIN] = min(result[Z_PITCH_MIN], true_pitch)
+    result[Z_PITCH_MAX] = max(result[Z_PITCH_MAX], true_pitch)
+    if t >= SETTLING_TIME:
+        result[Z_PITCH_SETTLED] = max(result[Z_PITCH_SETTLED], abs(true_pitch))
+    if trace.shape[0] > 0:
+        row = trace[k]
+        row[T_T] = t
+        row[T_X_C] = x
+        row[T_Y_C] = y
+        row[T_PITCH] = pitch  # what the controller used
+        row[T_VELOCITY] = velocity
+        row[T_YAW] = state[S_PSI]
+        row[T_LEFT_TORQUE] = out[O_LEFT]
+        row[T_RIGHT_TORQUE] = out[O_RIGHT]
+        row[T_VELOCITY_REF] = out[O_VELOCITY_REF]
+        row[T_YAW_RATE_REF] = out[O_YAW_RATE_REF]
+        row[T_PITCH_TRUE] = true_pitch
+        row[T_VELOCITY_TRUE] = state[S_XD]
+    if has_target:  # the controller takes a cmd_vel from the first state stamped after it
+        lp[L_V_REF] = lp[L_NEXT_V]
+        lp[L_W_REF] = lp[L_NEXT_W]
+        if lp[L_NEW_PLAN] != 0.0:
+            lp[L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
+            lp[L_NEW_PLAN] = 0.0
+            lp[L_COMMANDED] = 1.0
+    result[Z_SIM_TIME] = t
+    result[Z_SAMPLES] = k + 1
+    if (k == int(run[U_N_SAMPLES]) - 1 or result[Z_FALLEN] != 0.0
+            or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(result[Z_REACHED_AT]))):
+        return True
+    torque_limit = wheel_torque_limit(p)
+    lp[L_LEFT] = min(max(out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
+    lp[L_RIGHT] = min(max(out[O_RIGHT], -torque_limit), torque_limit)
+    return False
+
+
+@kernel
+def robot_moved(run, result, segment, draws, memories, j, fallen):
+    """Book robot j's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
+    and move its target on."""
+    memories[0][j, L_K] += 1
+    result[Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
+    if fallen:
+        result[Z_FALLEN] = 1.0
+    if run[U_HAS_TARGET] != 0.0 and not advance_segments(segment, draws, result[Z_PHYSICS_STEPS] * run[U_H],
+                                                         run[U_TARGET_SPEED], run[U_TURN_INTERVAL]):
+        raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
+
+
+@kernel
+def robot_end(run, result, memories, j):
+    """Robot j's result row from its tallies."""
+    loop = memories[0]
+    tally = memories[6]
+    sample_time = run[U_STEPS_PER_CONTROL] * run[U_H]
+    result[Z_COLLISIONS] = tally[j, W_COLLISIONS]
+    result[Z_LIFTED_TIME] = loop[j, L_LIFTED_SAMPLES] * sample_time
+    result[Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
+
+
 @kernel
 def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velocity, radii, profile, result,
               trace, imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q):
@@ -183,230 +426,114 @@ def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velo
     the sensors' settings and this robot's memories and generator (imu, encoders) and the estimator's settings,
     used when run[U_SENSORS] is set (ideal sensors read the state directly, as before).
     """
+    memories = new_memories(1, run, radii.shape[0])
+    work = np.empty((WORK_ROWS, N_STATE))
+    robot_begin(0, run, result, memories, imu_c, imu_m, generator)
+    while not robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result,
+                           trace, imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, 0):
+        loop = memories[0]
+        fallen = advance_upright(p, state, loop[0, L_LEFT], loop[0, L_RIGHT], run[U_H],
+                                 int(run[U_STEPS_PER_CONTROL]), work)
+        robot_moved(run, result, segment, draws, memories, 0, fallen)
+    robot_end(run, result, memories, 0)
+
+
+@kernel
+def run_group(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
+              results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lo, lanes):
+    """Robots lo..lo+lanes-1 together: each one's sample as run_robot's, then the physics of all of them
+    in lanes (dynamics.rk4_lanes, vectorised over the robots) until the next sample. Every robot's
+    result is run_robot's to the bit; the group's robots must share their number of RK4 sub-steps."""
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
-    n_samples = int(run[U_N_SAMPLES])
-    planner_period = run[U_PLANNER_PERIOD]
-    world_period = run[U_WORLD_PERIOD]
-    has_target = run[U_HAS_TARGET] != 0.0
-    end_on_target = run[U_END_ON_TARGET] != 0.0
-    target_speed = run[U_TARGET_SPEED]
-    turn_interval = run[U_TURN_INTERVAL]
-    capture_radius = run[U_CAPTURE_RADIUS]
-    cmd_times = profile[0]
-    cmd_speeds = profile[1]
-    cmd_yaw_rates = profile[2]
-    work = np.empty((WORK_ROWS, N_STATE))
-    control = np.zeros(N_CONTROL_STATE)
-    control[K_ENABLED] = 1.0
-    control_out = np.empty(N_CONTROL_OUTPUTS)
-    memory = np.zeros(N_PLANNER_MEMORY)
-    ring = np.zeros((int(run[U_RING_ROWS]), PROGRESS_COLUMNS))
-    plan_out = np.empty(N_PLANNER_OUTPUTS)
-    tally = np.zeros(N_TALLY)
-    positions = np.empty_like(obstacle_start)
-    distances = np.empty(radii.shape[0])
-    # per obstacle: inside the detection range at the last plan, and the robot's (t, x, y, yaw, speed,
-    # yaw rate) when it last came in
-    detected = np.zeros(radii.shape[0], dtype=np.bool_)
-    detected_at = np.zeros((radii.shape[0], 6))
-    hit_obstacle = -1
-    hit_detected = np.full(6, math.nan)
-    pitch_settled = 0.0
-    final_distance = math.nan
-    stuck_at_end = False
-    torque_limit = wheel_torque_limit(p)
-    robot_radius = p[P_ROBOT_RADIUS]
-    record = trace.shape[0] > 0
-    sensors = run[U_SENSORS] != 0.0
-    estimate = run[U_ESTIMATE] != 0.0
-    friction = run[U_FRICTION]
-    derivative = np.zeros(N_STATE)
-    reading = np.zeros(N_READING)
-    odometry = np.zeros(N_ENCODER_OUTPUTS)
-    loads = np.zeros(N_TRACTION_OUTPUTS)
-    estimator_m = np.zeros(N_ESTIMATOR_MEMORY)
-    if sensors:
-        imu_init(imu_c, imu_m, generator)
-    left = 0.0
-    right = 0.0
-    lifted = False
-    slipping = False
-    lift_events = 0
-    slip_events = 0
-    lifted_samples = 0
-    slipping_samples = 0
-    pitch_error_squares = 0.0
-
-    step_count = 0
-    fallen = False
-    world_next = -math.inf
-    plan_next = -math.inf
-    v_ref = 0.0  # the references in effect (a plan's take effect from the next sample, as cmd_vel in the graph)
-    w_ref = 0.0
-    next_v = 0.0
-    next_w = 0.0
-    command_stamp = 0.0  # the sample from which the references in effect apply (a new plan's: the one after it)
-    new_plan = False
-    commanded = not has_target  # a planner's first command applies from the second sample: none before it
-    reached_at = math.nan
-    min_clearance = math.inf
-    pitch_min = math.inf
-    pitch_max = -math.inf
-    stuck_steps = 0
-    t = 0.0
-    k = 0
-    for k in range(n_samples):
-        t = step_count * h
-        x = state[S_XC]  # the truth, for the world's assessment
-        y = state[S_YC]
-        pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
-        pitch_rate = state[S_THD]
-        odom_x = x  # what odom says, for the planner and the velocity loop
-        odom_y = y
-        odom_yaw = state[S_PSI]
-        odom_velocity = state[S_XD]
-        yaw_rate = state[S_PSID]
-        if sensors or friction > 0.0:
-            derivatives(p, state, left, right, derivative)  # under the command applied now
-        if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
-            imu_sample(p, imu_c, imu_m, generator, state, derivative, reading)
-            encoder_sample(p, encoder_c, encoder_m, state, odometry)
-            odom_x = odometry[J_X]
-            odom_y = odometry[J_Y]
-            odom_yaw = odometry[J_YAW]
-            odom_velocity = odometry[J_VELOCITY]
-            yaw_rate = odometry[J_YAW_RATE]
-            pitch = reading[R_PITCH]
-            pitch_rate = reading[R_GYRO + 1]
-            if estimate:
-                estimator_update(estimator_q, estimator_m, t, pitch_rate, reading[R_ACCEL], reading[R_ACCEL + 2],
-                                 odom_velocity)
-                pitch = estimator_m[E_PITCH]
-                pitch_rate = estimator_m[E_PITCH_RATE]
-        if friction > 0.0:
-            wheel_loads(p, state, derivative, loads)
-            now_lifted, now_slipping = traction_flags(loads, friction)
-            lift_events += 1 if now_lifted and not lifted else 0
-            slip_events += 1 if now_slipping and not slipping else 0
-            lifted_samples += 1 if now_lifted else 0
-            slipping_samples += 1 if now_slipping else 0
-            lifted = now_lifted
-            slipping = now_slipping
-        pitch_error_squares += (pitch - state[S_TH]) ** 2
-        # the velocity loop's speed: odom's, or the estimator's fused one
-        velocity = estimator_m[E_VELOCITY_ESTIMATE] if estimate else odom_velocity
-        if is_due(t, world_next):  # the world's assessment, at the world rate
-            world_next = next_due(t, world_next, world_period)
-            obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
-            collisions_before = tally[W_COLLISIONS]
-            clearance, hit = assess_obstacles(positions, radii, robot_radius, x, y, tally)
-            min_clearance = min(min_clearance, clearance)
-            if hit_obstacle < 0 and tally[W_COLLISIONS] > collisions_before:
-                hit_obstacle = hit
-                if detected[hit]:
-                    hit_detected[:] = detected_at[hit]
-                else:  # it came into range and hit between two plans: the robot now
-                    hit_detected[:] = (t, x, y, state[S_PSI], state[S_XD], state[S_PSID])
-            if has_target and math.isnan(reached_at):
-                tx, ty, _heading, _vx, _vy = target_at(segment, target_speed, t)
-                if math.hypot(tx - x, ty - y) <= capture_radius:
-                    reached_at = t
-        if has_target:
-            if is_due(t, plan_next):  # the planner, at its rate, on the world at time t
-                plan_next = next_due(t, plan_next, planner_period)
-                tx, ty, _heading, tvx, tvy = target_at(segment, target_speed, t)
-                obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions)
-                plan_step(a, memory, ring, plan_out, t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx, tvy,
-                          positions, obstacle_velocity, radii, distances)
-                next_v = plan_out[Q_V]
-                next_w = plan_out[Q_OMEGA]
-                new_plan = True
-                stuck_at_end = plan_out[Q_MODE] == STUCK
-                if stuck_at_end:
-                    stuck_steps += 1
-                final_distance = plan_out[Q_DISTANCE]
-                for j in range(radii.shape[0]):
-                    inside = distances[j] <= a[A_RHO_O]
-                    if inside and not detected[j]:
-                        detected_at[j, 0] = t
-                        detected_at[j, 1] = x
-                        detected_at[j, 2] = y
-                        detected_at[j, 3] = state[S_PSI]
-                        detected_at[j, 4] = state[S_XD]
-                        detected_at[j, 5] = state[S_PSID]
-                    detected[j] = inside
-        else:
-            v_ref, w_ref = command_profile_at(cmd_times, cmd_speeds, cmd_yaw_rates, t)
-            command_stamp = t  # a command profile: a command at every sample
-        hold = estimate and estimator_m[E_CALIBRATING] != 0.0
-        cascade_compute(c, control, control_out, t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
-                        not commanded, hold, command_stamp)
-        true_pitch = state[S_TH]
-        pitch_min = min(pitch_min, true_pitch)
-        pitch_max = max(pitch_max, true_pitch)
-        if t >= SETTLING_TIME:
-            pitch_settled = max(pitch_settled, abs(true_pitch))
-        if record:
-            row = trace[k]
-            row[T_T] = t
-            row[T_X_C] = x
-            row[T_Y_C] = y
-            row[T_PITCH] = pitch  # what the controller used
-            row[T_VELOCITY] = velocity
-            row[T_YAW] = state[S_PSI]
-            row[T_LEFT_TORQUE] = control_out[O_LEFT]
-            row[T_RIGHT_TORQUE] = control_out[O_RIGHT]
-            row[T_VELOCITY_REF] = control_out[O_VELOCITY_REF]
-            row[T_YAW_RATE_REF] = control_out[O_YAW_RATE_REF]
-            row[T_PITCH_TRUE] = true_pitch
-            row[T_VELOCITY_TRUE] = state[S_XD]
-        if has_target:  # the controller takes a cmd_vel from the first state stamped after it
-            v_ref = next_v
-            w_ref = next_w
-            if new_plan:
-                command_stamp = (step_count + steps_per_control) * h
-                new_plan = False
-                commanded = True
-        if k == n_samples - 1 or fallen or (end_on_target and not math.isnan(reached_at)):
+    n_sub = substeps(params[lo], h)
+    hs = h / n_sub
+    memories = new_memories(lanes, run, radii.shape[0])
+    loop = memories[0]
+    record = traces.shape[0] > 0
+    n_params = params.shape[1]
+    p = np.empty((n_params, lanes))
+    s = np.zeros((N_STATE, lanes))  # lanes not moving are computed, never stored: no garbage in them
+    left = np.empty(lanes)
+    right = np.empty(lanes)
+    work = np.empty((WORK_ROWS, N_STATE, lanes))
+    running = np.ones(lanes, dtype=np.bool_)  # its run goes on
+    moving = np.zeros(lanes, dtype=np.bool_)  # stepped by the physics now (running and not fallen)
+    fell = np.zeros(lanes, dtype=np.bool_)
+    for j in range(lanes):
+        i = lo + j
+        for q in range(n_params):
+            p[q, j] = params[i, q]
+        robot_begin(j, run, results[i], memories, imu_c, imu_m[i], generators[i])
+    alive = lanes
+    while alive > 0:
+        for j in range(lanes):
+            moving[j] = False
+            fell[j] = False
+            if not running[j]:
+                continue
+            i = lo + j
+            trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
+            if robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i], obstacle_velocity[i],
+                            radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c,
+                            encoder_m[i], estimator_q, memories, j):
+                robot_end(run, results[i], memories, j)
+                running[j] = False
+                alive -= 1
+                continue
+            moving[j] = True
+            left[j] = loop[j, L_LEFT]
+            right[j] = loop[j, L_RIGHT]
+            for q in range(N_STATE):
+                s[q, j] = states[i, q]
+        if alive == 0:
             break
-        left = min(max(control_out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
-        right = min(max(control_out[O_RIGHT], -torque_limit), torque_limit)
-        fallen = advance_upright(p, state, left, right, h, steps_per_control, work)
-        step_count += steps_per_control
-        if has_target and not advance_segments(segment, draws, step_count * h, target_speed, turn_interval):
-            raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
-    result[Z_REACHED_AT] = reached_at
-    result[Z_COLLISIONS] = tally[W_COLLISIONS]
-    result[Z_MIN_CLEARANCE] = min_clearance
-    result[Z_PITCH_MIN] = pitch_min
-    result[Z_PITCH_MAX] = pitch_max
-    result[Z_FALLEN] = 1.0 if fallen else 0.0
-    result[Z_STUCK_STEPS] = stuck_steps
-    result[Z_SIM_TIME] = t
-    result[Z_SAMPLES] = k + 1
-    result[Z_PHYSICS_STEPS] = step_count
-    result[Z_HIT_OBSTACLE] = hit_obstacle
-    result[Z_DETECTED:Z_DETECTED + 6] = hit_detected
-    result[Z_PITCH_SETTLED] = pitch_settled
-    result[Z_FINAL_DISTANCE] = final_distance
-    result[Z_STUCK_AT_END] = 1.0 if stuck_at_end else 0.0
-    result[Z_LIFT_EVENTS] = lift_events
-    result[Z_SLIP_EVENTS] = slip_events
-    result[Z_LIFTED_TIME] = lifted_samples * steps_per_control * h
-    result[Z_SLIPPING_TIME] = slipping_samples * steps_per_control * h
-    result[Z_PITCH_ERROR_SQUARES] = pitch_error_squares
+        for _ in range(steps_per_control):  # advance_upright's steps, lane by lane
+            for _ in range(n_sub):
+                rk4_lanes(p, s, left, right, hs, work, lanes, moving)
+            for j in range(lanes):
+                if moving[j] and abs(s[S_TH, j]) > p[P_FALL, j]:
+                    s[S_XD, j] = 0.0
+                    s[S_THD, j] = 0.0
+                    s[S_PSID, j] = 0.0
+                    s[S_IL, j] = 0.0
+                    s[S_IR, j] = 0.0
+                    moving[j] = False
+                    fell[j] = True
+        for j in range(lanes):
+            if running[j]:
+                i = lo + j
+                for q in range(N_STATE):
+                    states[i, q] = s[q, j]
+                robot_moved(run, results[i], segments[i], draws[i], memories, j, fell[j])
 
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
-                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q):
+                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes):
+    n = params.shape[0]
     record = traces.shape[0] > 0
-    for i in prange(params.shape[0]):
-        trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
-        run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
-                  radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
-                  estimator_q)
+    for g in prange((n + lanes - 1) // lanes):
+        lo = g * lanes
+        size = min(n, lo + lanes) - lo
+        n_sub = substeps(params[lo], run[U_H])
+        same = True
+        for i in range(lo, lo + size):
+            same = same and substeps(params[i], run[U_H]) == n_sub
+        if same:
+            run_group(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
+                      results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lo, size)
+            continue
+        for i in range(lo, lo + size):  # robots that sub-step differently: one by one
+            trace = traces[i] if record else traces[0]
+            run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
+                      radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
+                      estimator_q)
+
+
+def group_size(n: int) -> int:
+    """Robots stepped together: up to dynamics.LANES, and small enough that every thread has groups."""
+    return max(1, min(LANES, -(-n // (2 * get_num_threads()))))
 
 
 @dataclass
@@ -442,15 +569,19 @@ def run_batch(
     duration: float | None = None,
     record: bool = False,
     sim: Mapping[str, Any] | None = None,
+    lanes: int | None = None,
 ) -> BatchResult:
     """Run len(seeds) robots of `scenario`; robot i has the parameter vector params[i] (robot_params) and
     the world (and sensor noise) of seeds[i]. Settings default to the parameter tables (the planner's under
     what the scenario pins; `sim`: the simulator's sensor and traction parameters, imu.*, encoder.*,
-    traction.*); `duration` to the scenario's."""
+    traction.*); `duration` to the scenario's. `lanes`: robots stepped together (group_size by default)."""
     n = len(seeds)
     params = np.ascontiguousarray(params, dtype=float)
     if n < 1 or params.shape[0] != n:
         raise ConfigError(f"batch: {n} seeds and {params.shape[0]} parameter rows: need as many, at least 1")
+    lanes = group_size(n) if lanes is None else lanes
+    if not 1 <= lanes <= max(n, 1):
+        raise ConfigError(f"batch: lanes={lanes}: need 1 to the number of robots ({n})")
     control_cfg = resolve_controller(control)
     planner_cfg = resolve_planner(planner, scenario)
     rate = control_cfg["rate"]
@@ -500,8 +631,8 @@ def run_batch(
     run[U_FRICTION] = sim_cfg["traction.friction"]
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
-    with parallel_chunksize(4):  # runs end at different times: hand robots out in small chunks
+    with parallel_chunksize(1):  # runs end at different times: hand groups out one by one
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
-                    encoder_c, encoder_m, estimator_vector(control_cfg))
+                    encoder_c, encoder_m, estimator_vector(control_cfg), lanes)
     return BatchResult(results, traces if record else None, physics_rate)

@@ -81,6 +81,7 @@ if COMPILED:
     parallel_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, parallel=True)
     prange = numba.prange
     parallel_chunksize = numba.parallel_chunksize
+    get_num_threads = numba.get_num_threads
 else:
     def kernel(function):  # the same source, run by the interpreter
         return function
@@ -91,3 +92,6 @@ else:
 
     def parallel_chunksize(_size: int) -> contextlib.AbstractContextManager:
         return contextlib.nullcontext()
+
+    def get_num_threads() -> int:
+        return 1

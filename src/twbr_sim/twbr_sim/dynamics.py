@@ -19,6 +19,7 @@ import numpy as np
 
 from twbr_common.jit import kernel, lane_kernel, parallel_kernel, prange
 from twbr_common.layout import Layout
+from twbr_common.trig import sincos
 from twbr_sim.robot_params import (
     D_A,
     D_C2,
@@ -99,8 +100,7 @@ def column(a):
 @_lane
 def lane_accelerations(p, i, x_dot, pitch, pitch_rate, yaw_rate, torque_left, torque_right):
     """(x_ddot, pitch_ddot, yaw_ddot) of the 3-DOF model of lane i for given wheel torques [N*m]."""
-    s = math.sin(pitch)
-    c = math.cos(pitch)
+    s, c = sincos(pitch)
     dd = p[D_DD, i]
     a = p[D_A, i]
     ml = p[D_ML, i]
@@ -155,7 +155,7 @@ def lane_derivatives(p, i, s, cmd_left, cmd_right, out):
     """Time derivative of lane i's state s[:, i] under commanded wheel torques, written into out[:, i]."""
     x_dot = s[S_XD, i]
     pitch_rate = s[S_THD, i]
-    yaw = s[S_PSI, i]
+    sin_yaw, cos_yaw = sincos(s[S_PSI, i])
     yaw_rate = s[S_PSID, i]
     rate_l, rate_r = lane_wheel_rates(p, i, x_dot, yaw_rate)
     rel_l = rate_l - pitch_rate
@@ -174,8 +174,8 @@ def lane_derivatives(p, i, s, cmd_left, cmd_right, out):
     out[S_THD, i] = pitch_ddot
     out[S_PSI, i] = yaw_rate
     out[S_PSID, i] = yaw_ddot
-    out[S_XC, i] = x_dot * math.cos(yaw)
-    out[S_YC, i] = x_dot * math.sin(yaw)
+    out[S_XC, i] = x_dot * cos_yaw
+    out[S_YC, i] = x_dot * sin_yaw
     out[S_GL, i] = rate_l
     out[S_GR, i] = rate_r
     out[S_IL, i] = lane_current_rate(p, i, v_l, i_l, rel_l)
@@ -277,9 +277,10 @@ def simulate(p, s, cmd_left, cmd_right, h, n_steps, work):
 
 
 @_lane
-def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes):
+def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes, moving):
     """One RK4 step of length h of lanes 0..lanes-1 in place: p (N_PARAMS, L), s (N_STATE, L), the
-    commands (L,), work (WORK_ROWS, N_STATE, L). The same stages as _rk4, each a loop over the robots."""
+    commands (L,), work (WORK_ROWS, N_STATE, L). The same stages as _rk4, each a loop over the robots;
+    a lane whose `moving` is False is computed but keeps its state (a robot that fell or whose run ended)."""
     k1 = work[0]
     k2 = work[1]
     k3 = work[2]
@@ -304,7 +305,8 @@ def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes):
         lane_derivatives(p, i, trial, cmd_left[i], cmd_right[i], k4)
     for j in range(N_STATE):
         for i in range(lanes):
-            s[j, i] += (h / 6.0) * (k1[j, i] + 2.0 * k2[j, i] + 2.0 * k3[j, i] + k4[j, i])
+            if moving[i]:
+                s[j, i] += (h / 6.0) * (k1[j, i] + 2.0 * k2[j, i] + 2.0 * k3[j, i] + k4[j, i])
 
 
 LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1/L2 cache
@@ -337,6 +339,7 @@ def step_batch(params, states, commands, h, n_steps):
         left = np.empty(LANES)
         right = np.empty(LANES)
         work = np.empty((WORK_ROWS, N_STATE, LANES))
+        moving = np.ones(LANES, dtype=np.bool_)
         for i in range(lanes):
             for k in range(n_params):
                 p[k, i] = params[lo + i, k]
@@ -346,7 +349,7 @@ def step_batch(params, states, commands, h, n_steps):
             right[i] = commands[lo + i, 1]
         hs = h / n_sub
         for _ in range(n_steps * n_sub):
-            rk4_lanes(p, s, left, right, hs, work, lanes)
+            rk4_lanes(p, s, left, right, hs, work, lanes, moving)
         for i in range(lanes):
             for k in range(N_STATE):
                 states[lo + i, k] = s[k, i]
