@@ -1,15 +1,17 @@
 """Batch engine: N robots at once through dynamics, motors, controller, planner and world, without ROS.
 
 Each robot is the headless closed loop of `closed_loop` (the state at step k, the command computed from
-it held until step k+1; the planner and the world's assessment at their own rates), compiled as one
-kernel and run over the robot axis in parallel threads. It calls the very kernels the scalar cores and
-so the nodes call (`dynamics.advance_upright`, `cascade.cascade_compute`, `planner.plan_step`, the world's
+it held until step k+1; the planner and the world's assessment at their own rates). All robots advance
+sample by sample: their samples in parallel threads, then their physics in groups of robots stepped
+together in lanes (structure of arrays, vectorised over the robots). It calls the very kernels the scalar
+cores and so the nodes call (`dynamics.advance_upright(_lanes)`, `cascade.cascade_compute`, `planner.plan_step`, the world's
 `advance_segments`, `target_at`, `obstacle_positions_at`, `assess_obstacles`, the scenario's
 `command_profile_at`): there is no second copy of an equation to drift apart.
 
 Like the headless closed loop, the batch exchanges every command (lockstep, no lost or stale message) and
-reads an ideal IMU (no noise, no bias). A robot's run ends on its target (end_on_target), its fall, or the
-scenario's duration; finished robots cost nothing while the others run on.
+reads an ideal IMU (no noise, no bias) unless sensors are set. A robot's run ends on its target
+(end_on_target), its fall, or the scenario's duration; finished robots leave the groups and cost nothing
+while the others run on.
 """
 
 from __future__ import annotations
@@ -52,8 +54,6 @@ from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.dynamics import (
     LANES,
     N_STATE,
-    S_IL,
-    S_IR,
     S_PSI,
     S_PSID,
     S_TH,
@@ -63,9 +63,9 @@ from twbr_sim.dynamics import (
     S_YC,
     WORK_ROWS,
     advance_upright,
+    advance_upright_lanes,
     derivatives,
     initial_state,
-    rk4_lanes,
     substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
@@ -76,7 +76,7 @@ from twbr_sim.imu import IMU_STREAM, N_READING, R_ACCEL, R_GYRO, R_PITCH, imu_in
 from twbr_sim.imu import new_memory as new_imu_memory
 from twbr_sim.imu import settings_vector as imu_vector
 from twbr_sim.noise import new_generator
-from twbr_sim.robot_params import P_FALL, P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
 from twbr_sim.simulator import SENSOR_SPECS, SIM_SPECS, steps_per_publish
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
@@ -414,126 +414,91 @@ def robot_end(run, result, memories, j):
     result[Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
 
 
-@kernel
-def run_robot(p, state, c, a, run, segment, draws, obstacle_start, obstacle_velocity, radii, profile, result,
-              trace, imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q):
-    """One robot's whole run, as run_closed_loop with the planner or the command profile as reference.
-
-    p: robot parameters (robot_params.ROBOT_LAYOUT), state (dynamics.STATE_LAYOUT), c: controller settings
-    (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; the target's
-    segment and yaw-rate draws, the obstacles' start [m], velocity [m/s] and radii [m], the command
-    profile (three rows: t [s], v [m/s], omega [rad/s]); result: RESULT_LAYOUT; trace: rows of TRACE_LAYOUT;
-    the sensors' settings and this robot's memories and generator (imu, encoders) and the estimator's settings,
-    used when run[U_SENSORS] is set (ideal sensors read the state directly, as before).
-    """
-    memories = new_memories(1, run, radii.shape[0])
-    work = np.empty((WORK_ROWS, N_STATE))
-    robot_begin(0, run, result, memories, imu_c, imu_m, generator)
-    while not robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result,
-                           trace, imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, 0):
-        loop = memories[0]
-        fallen = advance_upright(p, state, loop[0, L_LEFT], loop[0, L_RIGHT], run[U_H],
-                                 int(run[U_STEPS_PER_CONTROL]), work)
-        robot_moved(run, result, segment, draws, memories, 0, fallen)
-    robot_end(run, result, memories, 0)
-
-
-@kernel
-def run_group(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
-              results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lo, lanes):
-    """Robots lo..lo+lanes-1 together: each one's sample as run_robot's, then the physics of all of them
-    in lanes (dynamics.rk4_lanes, vectorised over the robots) until the next sample. Every robot's
-    result is run_robot's to the bit; the group's robots must share their number of RK4 sub-steps."""
-    h = run[U_H]
-    steps_per_control = int(run[U_STEPS_PER_CONTROL])
-    n_sub = substeps(params[lo], h)
-    hs = h / n_sub
-    memories = new_memories(lanes, run, radii.shape[0])
-    loop = memories[0]
-    record = traces.shape[0] > 0
-    n_params = params.shape[1]
-    p = np.empty((n_params, lanes))
-    s = np.zeros((N_STATE, lanes))  # lanes not moving are computed, never stored: no garbage in them
-    left = np.empty(lanes)
-    right = np.empty(lanes)
-    work = np.empty((WORK_ROWS, N_STATE, lanes))
-    running = np.ones(lanes, dtype=np.bool_)  # its run goes on
-    moving = np.zeros(lanes, dtype=np.bool_)  # stepped by the physics now (running and not fallen)
-    fell = np.zeros(lanes, dtype=np.bool_)
-    for j in range(lanes):
-        i = lo + j
-        for q in range(n_params):
-            p[q, j] = params[i, q]
-        robot_begin(j, run, results[i], memories, imu_c, imu_m[i], generators[i])
-    alive = lanes
-    while alive > 0:
-        for j in range(lanes):
-            moving[j] = False
-            fell[j] = False
-            if not running[j]:
-                continue
-            i = lo + j
-            trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
-            if robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i], obstacle_velocity[i],
-                            radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c,
-                            encoder_m[i], estimator_q, memories, j):
-                robot_end(run, results[i], memories, j)
-                running[j] = False
-                alive -= 1
-                continue
-            moving[j] = True
-            left[j] = loop[j, L_LEFT]
-            right[j] = loop[j, L_RIGHT]
-            for q in range(N_STATE):
-                s[q, j] = states[i, q]
-        if alive == 0:
-            break
-        for _ in range(steps_per_control):  # advance_upright's steps, lane by lane
-            for _ in range(n_sub):
-                rk4_lanes(p, s, left, right, hs, work, lanes, moving)
-            for j in range(lanes):
-                if moving[j] and abs(s[S_TH, j]) > p[P_FALL, j]:
-                    s[S_XD, j] = 0.0
-                    s[S_THD, j] = 0.0
-                    s[S_PSID, j] = 0.0
-                    s[S_IL, j] = 0.0
-                    s[S_IR, j] = 0.0
-                    moving[j] = False
-                    fell[j] = True
-        for j in range(lanes):
-            if running[j]:
-                i = lo + j
-                for q in range(N_STATE):
-                    states[i, q] = s[q, j]
-                robot_moved(run, results[i], segments[i], draws[i], memories, j, fell[j])
-
-
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes):
+    """All robots' runs, sample by sample: every running robot's sample (robot_sample, in parallel over the
+    robots), then their physics until the next sample in groups of `lanes` robots
+    (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
+    robot whose run has ended leaves the groups, so they stay full. Every robot's result is the same to
+    the bit whoever its neighbours are (test_batch); a group whose robots need different numbers of RK4
+    sub-steps steps robot by robot (dynamics.advance_upright).
+
+    params: robot parameters (robot_params.ROBOT_LAYOUT), states (dynamics.STATE_LAYOUT), c: controller
+    settings (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; each
+    robot's target segment and yaw-rate draws, obstacles' start [m] and velocity [m/s]; the radii [m]; the
+    command profile (three rows: t [s], v [m/s], omega [rad/s]); results: RESULT_LAYOUT rows; traces: rows of
+    TRACE_LAYOUT per robot; the sensors' settings, each robot's sensor memories and generator, and the
+    estimator's settings, used when run[U_SENSORS] is set (ideal sensors read the state directly)."""
     n = params.shape[0]
+    n_params = params.shape[1]
+    h = run[U_H]
+    steps_per_control = int(run[U_STEPS_PER_CONTROL])
     record = traces.shape[0] > 0
-    for g in prange((n + lanes - 1) // lanes):
-        lo = g * lanes
-        size = min(n, lo + lanes) - lo
-        n_sub = substeps(params[lo], run[U_H])
-        same = True
-        for i in range(lo, lo + size):
-            same = same and substeps(params[i], run[U_H]) == n_sub
-        if same:
-            run_group(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
-                      results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lo, size)
-            continue
-        for i in range(lo, lo + size):  # robots that sub-step differently: one by one
-            trace = traces[i] if record else traces[0]
-            run_robot(params[i], states[i], c, a, run, segments[i], draws[i], obstacle_start[i], obstacle_velocity[i],
-                      radii, profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
-                      estimator_q)
+    memories = new_memories(n, run, radii.shape[0])
+    loop = memories[0]
+    for i in range(n):
+        robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
+    running = np.arange(n)  # the robots whose run goes on, in order
+    ended = np.zeros(n, dtype=np.bool_)
+    n_running = n
+    while n_running > 0:
+        for q in prange(n_running):
+            i = running[q]
+            trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
+            ended[q] = robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i],
+                                    obstacle_velocity[i], radii, profile, results[i], trace, imu_c, imu_m[i],
+                                    generators[i], encoder_c, encoder_m[i], estimator_q, memories, i)
+            if ended[q]:
+                robot_end(run, results[i], memories, i)
+        m = 0
+        for q in range(n_running):
+            if not ended[q]:
+                running[m] = running[q]
+                m += 1
+        n_running = m
+        for g in prange((m + lanes - 1) // lanes):
+            lo = g * lanes
+            size = min(m, lo + lanes) - lo
+            p = np.empty((n_params, LANES))
+            s = np.empty((N_STATE, LANES))
+            left = np.empty(LANES)
+            right = np.empty(LANES)
+            work = np.empty((WORK_ROWS, N_STATE, LANES))
+            moving = np.ones(LANES, dtype=np.bool_)
+            fell = np.zeros(LANES, dtype=np.bool_)
+            n_sub = substeps(params[running[lo]], h)
+            same = True
+            for j in range(size):
+                same = same and substeps(params[running[lo + j]], h) == n_sub
+            if same:
+                for j in range(size):
+                    i = running[lo + j]
+                    for k in range(n_params):
+                        p[k, j] = params[i, k]
+                    for k in range(N_STATE):
+                        s[k, j] = states[i, k]
+                    left[j] = loop[i, L_LEFT]
+                    right[j] = loop[i, L_RIGHT]
+                advance_upright_lanes(p, s, left, right, h, steps_per_control, work, size, moving, fell)
+                for j in range(size):
+                    i = running[lo + j]
+                    for k in range(N_STATE):
+                        states[i, k] = s[k, j]
+            else:
+                one = np.empty((WORK_ROWS, N_STATE))
+                for j in range(size):
+                    i = running[lo + j]
+                    fell[j] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
+                                              steps_per_control, one)
+            for j in range(size):
+                i = running[lo + j]
+                robot_moved(run, results[i], segments[i], draws[i], memories, i, fell[j])
 
 
 def group_size(n: int) -> int:
     """Robots stepped together: up to dynamics.LANES, and small enough that every thread has groups."""
-    return max(1, min(LANES, -(-n // (2 * get_num_threads()))))
+    return max(1, min(LANES, -(-n // get_num_threads())))
 
 
 @dataclass
@@ -631,7 +596,7 @@ def run_batch(
     run[U_FRICTION] = sim_cfg["traction.friction"]
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
-    with parallel_chunksize(1):  # runs end at different times: hand groups out one by one
+    with parallel_chunksize(0):  # equal shares: the running robots are kept together
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
                     encoder_c, encoder_m, estimator_vector(control_cfg), lanes)

@@ -10,7 +10,7 @@ sin.c/cos.c: Cody-Waite reduction by pi/2 in three parts, then the minimax polyn
 
 from __future__ import annotations
 
-from twbr_common.jit import kernel
+from twbr_common.jit import lane_kernel
 
 _ROUND = 6755399441055744.0  # 1.5 * 2^52: x + _ROUND - _ROUND rounds x to an integer (|x| < 2^51)
 _TWO_OVER_PI = 0.63661977236758134308
@@ -31,7 +31,7 @@ _C4 = -1.38888888888730564116e-3
 _C5 = 4.16666666666665929218e-2
 
 
-@kernel
+@lane_kernel
 def sincos(x: float) -> tuple[float, float]:
     """(sin x, cos x) [x in rad]."""
     n = (x * _TWO_OVER_PI + _ROUND) - _ROUND  # the nearest multiple of pi/2

@@ -253,18 +253,29 @@ def rk4_step(p, s, cmd_left, cmd_right, h, work):
         _rk4(p, s, cmd_left, cmd_right, hs, work)
 
 
+@_lane
+def lane_fallen(p, i, s):
+    """True when lane i's |pitch| > fall_limit; the robot then lies still (its rates and currents zeroed),
+    since no ground contact is modelled."""
+    if abs(s[S_TH, i]) > p[P_FALL, i]:
+        s[S_XD, i] = 0.0
+        s[S_THD, i] = 0.0
+        s[S_PSID, i] = 0.0
+        s[S_IL, i] = 0.0
+        s[S_IR, i] = 0.0
+        return True
+    return False
+
+
 @_jit
 def advance_upright(p, s, cmd_left, cmd_right, h, n_steps, work):
-    """n_steps of rk4_step unless the robot falls (|pitch| > fall_limit): then it lies still, since no
-    ground contact is modelled, and the result is True. The simulator and the batch engine step with it."""
+    """n_steps of rk4_step unless the robot falls (lane_fallen): then the result is True. The simulator
+    steps with it; the batch engine with advance_upright_lanes."""
+    pc = column(p)
+    sc = column(s)
     for _ in range(n_steps):
         rk4_step(p, s, cmd_left, cmd_right, h, work)
-        if abs(s[S_TH]) > p[P_FALL]:
-            s[S_XD] = 0.0
-            s[S_THD] = 0.0
-            s[S_PSID] = 0.0
-            s[S_IL] = 0.0
-            s[S_IR] = 0.0
+        if lane_fallen(pc, 0, sc):
             return True
     return False
 
@@ -310,6 +321,21 @@ def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes, moving):
 
 
 LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1/L2 cache
+
+
+@_lane
+def advance_upright_lanes(p, s, cmd_left, cmd_right, h, n_steps, work, lanes, moving, fell):
+    """advance_upright for lanes 0..lanes-1 that are `moving` (their robots sharing substeps): a lane that
+    falls stops moving and its `fell` is set."""
+    n_sub = substeps(p[:, 0], h)
+    hs = h / n_sub
+    for _ in range(n_steps):
+        for _ in range(n_sub):
+            rk4_lanes(p, s, cmd_left, cmd_right, hs, work, lanes, moving)
+        for i in range(lanes):
+            if moving[i] and lane_fallen(p, i, s):
+                moving[i] = False
+                fell[i] = True
 
 
 @parallel_kernel
