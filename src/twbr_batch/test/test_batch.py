@@ -114,6 +114,8 @@ def test_mismatched_inputs_are_refused():
         batch.run_batch(scenario, [1], robot_params()[None, :], control={"rate": -5.0})
     with pytest.raises(ConfigError, match="lanes=3: need 1 to the number of robots"):
         batch.run_batch(scenario, [1, 2], np.tile(robot_params(), (2, 1)), lanes=3)
+    with pytest.raises(ConfigError, match=f"lanes=65: need 1 to the number of robots .100., at most {batch.LANES}"):
+        batch.run_batch(scenario, list(range(100)), np.tile(robot_params(), (100, 1)), lanes=65)
 
 
 @pytest.mark.parametrize(("name", "controller"), [("step", "pid"), ("dynamic_obstacles", "pid"),

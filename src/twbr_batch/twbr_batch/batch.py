@@ -545,8 +545,8 @@ def run_batch(
     if n < 1 or params.shape[0] != n:
         raise ConfigError(f"batch: {n} seeds and {params.shape[0]} parameter rows: need as many, at least 1")
     lanes = group_size(n) if lanes is None else lanes
-    if not 1 <= lanes <= max(n, 1):
-        raise ConfigError(f"batch: lanes={lanes}: need 1 to the number of robots ({n})")
+    if not 1 <= lanes <= min(n, LANES):
+        raise ConfigError(f"batch: lanes={lanes}: need 1 to the number of robots ({n}), at most {LANES}")
     control_cfg = resolve_controller(control)
     planner_cfg = resolve_planner(planner, scenario)
     rate = control_cfg["rate"]
