@@ -414,6 +414,22 @@ def robot_end(run, result, memories, j):
     result[Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
 
 
+SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread, one by one
+
+
+@kernel
+def _sample(i, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
+            traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories):
+    """Robot i's sample (robot_sample); True when its run ends there, its result then complete."""
+    trace = traces[i] if traces.shape[0] > 0 else traces[0]  # (0, N_TRACE): nothing recorded
+    if robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i], obstacle_velocity[i], radii,
+                    profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
+                    estimator_q, memories, i):
+        robot_end(run, results[i], memories, i)
+        return True
+    return False
+
+
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes):
@@ -422,7 +438,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
     robot whose run has ended leaves the groups, so they stay full. Every robot's result is the same to
     the bit whoever its neighbours are (test_batch); a group whose robots need different numbers of RK4
-    sub-steps steps robot by robot (dynamics.advance_upright).
+    sub-steps, and the last SERIAL_ROBOTS robots, step robot by robot (dynamics.advance_upright).
 
     params: robot parameters (robot_params.ROBOT_LAYOUT), states (dynamics.STATE_LAYOUT), c: controller
     settings (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; each
@@ -434,7 +450,6 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     n_params = params.shape[1]
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
-    record = traces.shape[0] > 0
     memories = new_memories(n, run, radii.shape[0])
     loop = memories[0]
     for i in range(n):
@@ -443,20 +458,30 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     ended = np.zeros(n, dtype=np.bool_)
     n_running = n
     while n_running > 0:
-        for q in prange(n_running):
-            i = running[q]
-            trace = traces[i] if record else traces[0]  # (0, N_TRACE): nothing recorded
-            ended[q] = robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i],
-                                    obstacle_velocity[i], radii, profile, results[i], trace, imu_c, imu_m[i],
-                                    generators[i], encoder_c, encoder_m[i], estimator_q, memories, i)
-            if ended[q]:
-                robot_end(run, results[i], memories, i)
+        if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
+            for q in range(n_running):
+                ended[q] = _sample(running[q], params, states, c, a, run, segments, obstacle_start,
+                                   obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
+                                   encoder_c, encoder_m, estimator_q, memories)
+        else:
+            for q in prange(n_running):
+                ended[q] = _sample(running[q], params, states, c, a, run, segments, obstacle_start,
+                                   obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
+                                   encoder_c, encoder_m, estimator_q, memories)
         m = 0
         for q in range(n_running):
             if not ended[q]:
                 running[m] = running[q]
                 m += 1
         n_running = m
+        if m <= SERIAL_ROBOTS:
+            one = np.empty((WORK_ROWS, N_STATE))
+            for q in range(m):
+                i = running[q]
+                fallen = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
+                                         steps_per_control, one)
+                robot_moved(run, results[i], segments[i], draws[i], memories, i, fallen)
+            continue
         for g in prange((m + lanes - 1) // lanes):
             lo = g * lanes
             size = min(m, lo + lanes) - lo
