@@ -170,7 +170,7 @@ def main() -> int:
         rest -= n
         print(f"  {name:>10}: {n:7.1f} flops per robot-step")
     result["flops_per_robot_step_loop"] = rest
-    print(f"  {'the loop':>10}: {rest:7.1f} flops per robot-step (run_robot's own: limits, tallies, timing)")
+    print(f"  {'the loop':>10}: {rest:7.1f} flops per robot-step (the batch loop's own: limits, tallies, timing)")
 
     scenario = load_scenario(find_scenario(args.scenario))
     run_batch(scenario, [1], robot_params()[None, :], duration=0.1)  # compile or load the kernels first
