@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.jit import get_num_threads, kernel, parallel_chunksize, parallel_kernel, prange
+from twbr_common.jit import get_num_threads, inline_kernel, kernel, parallel_chunksize, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due
@@ -249,7 +249,7 @@ def robot_begin(j, run, result, memories, imu_c, imu_m, generator):
         imu_init(imu_c, imu_m, generator)
 
 
-@kernel
+@inline_kernel
 def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result, trace,
                  imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, j):
     """One sample of robot j's run, as run_closed_loop's: sense the state, assess the world, plan, control.
@@ -403,7 +403,7 @@ def robot_moved(run, result, segment, draws, memories, j, fallen):
         raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
 
 
-@kernel
+@inline_kernel
 def robot_end(run, result, memories, j):
     """Robot j's result row from its tallies."""
     loop = memories[0]

@@ -83,6 +83,9 @@ if COMPILED:
     # (a mass matrix, an inertia) are compiled with it. The loop vectorises where its arrays are allocated
     # with a constant shape in a parallel kernel's body (dynamics.step_batch, batch._run_robots).
     lane_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, error_model="numpy", inline="always")
+    # A small helper of a kernel, inlined into its callers' IR: a call between compiled functions passes its
+    # arrays with reference counting, which costs more than the helper's arithmetic.
+    inline_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, inline="always")
     parallel_kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True, parallel=True)
     prange = numba.prange
     parallel_chunksize = numba.parallel_chunksize
@@ -93,6 +96,7 @@ else:
 
     parallel_kernel = kernel
     lane_kernel = kernel
+    inline_kernel = kernel
     prange = range
 
     def parallel_chunksize(_size: int) -> contextlib.AbstractContextManager:

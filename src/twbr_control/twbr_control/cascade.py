@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel
 from twbr_common.layout import Layout
 from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, PidGains, pid_reset, pid_update
 
@@ -133,12 +133,12 @@ class ControlOutput:
     calibrating: bool = False  # the estimator was calibrating: zero torque
 
 
-@kernel
+@inline_kernel
 def _clip(value, limit):
     return min(max(value, -limit), limit)
 
 
-@kernel
+@inline_kernel
 def _copysign_int(value):
     return 1 if value >= 0.0 else -1
 
@@ -165,7 +165,7 @@ def settings_vector(settings: Mapping[str, Any]) -> np.ndarray:
     return c
 
 
-@kernel
+@inline_kernel
 def _lqr_integral(k, slot, error, dt, unlimited_of_integral, gain, limit):
     """Integrate `error` into k[slot] unless the output -gain*integral + rest is past `limit` and the step
     pushes it further (anti-windup). Returns the output before its limit."""
@@ -177,7 +177,7 @@ def _lqr_integral(k, slot, error, dt, unlimited_of_integral, gain, limit):
     return unlimited
 
 
-@kernel
+@inline_kernel
 def _lqr(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
     """The LQR law on the shaped references: (pitch_ref equivalent, common, differential, saturated flags)."""
     g = C_LQR
@@ -211,7 +211,7 @@ def cascade_reset(k):
         k[i] = 0.0
 
 
-@kernel
+@inline_kernel
 def _low_pass(k, slot, measurement, time_constant, dt):
     """First-order low-pass of a measurement into k[slot] (from the measurement itself after a reset)."""
     if time_constant <= 0.0 or k[K_FILTERS_READY] == 0.0:
@@ -221,13 +221,13 @@ def _low_pass(k, slot, measurement, time_constant, dt):
     return k[slot]
 
 
-@kernel
+@inline_kernel
 def _segment_at(h, stamp):
     """The command hold's straight segment (H_*) at `stamp`: its end value once past its end."""
     return h[H_FROM] + (h[H_TO] - h[H_FROM]) * min(1.0, (stamp - h[H_START]) / (h[H_END] - h[H_START]))
 
 
-@kernel
+@inline_kernel
 def _command_hold(h, reference, command_stamp, stamp, max_slope):
     """The reference between commands (the sample-and-hold of a 20 Hz planner otherwise): on each command, a
     straight line from where the held reference is now to where the command stream is heading one command
@@ -260,7 +260,7 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
     return _segment_at(h, stamp)
 
 
-@kernel
+@inline_kernel
 def _rate_limit(k, shaped, reference, rate, dt):
     """Move k[shaped] towards `reference` by at most `rate` * dt (0: at once): a step becomes a ramp, a
     command stream that changes no faster (a planner's, limited by its own max_acceleration) passes as is."""
@@ -270,7 +270,7 @@ def _rate_limit(k, shaped, reference, rate, dt):
         k[shaped] += _clip(reference - k[shaped], rate * dt)
 
 
-@kernel
+@inline_kernel
 def _sample_time(c, k, stamp):
     if k[K_HAS_LAST] == 0.0 or stamp <= k[K_LAST_STAMP]:
         if k[K_HAS_LAST] != 0.0:
@@ -284,7 +284,7 @@ def _sample_time(c, k, stamp):
     return dt
 
 
-@kernel
+@inline_kernel
 def _cascade(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
     """The paper's cascade on the shaped references: (pitch_ref, common, differential, pitch_ref limited,
     torque saturated)."""

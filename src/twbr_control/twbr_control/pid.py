@@ -22,7 +22,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel
 from twbr_common.layout import Layout
 
 # One loop's gains (the fields of PidGains, in order) and its memory.
@@ -64,7 +64,7 @@ def pid_reset(m):
     m[:] = 0.0
 
 
-@kernel
+@inline_kernel
 def pid_update(g, m, setpoint, measurement, dt, measurement_rate, has_rate, hold_integral):
     """One sample; `has_rate` says whether `measurement_rate` [unit/s] is given (else it is differenced).
     `hold_integral` = +1/-1 forbids integrating upwards/downwards (cascade windup). Returns the output."""
