@@ -432,7 +432,7 @@ def _sample(i, params, states, c, a, run, segments, obstacle_start, obstacle_vel
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
-                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes):
+                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes, threads):
     """All robots' runs, sample by sample: every running robot's sample (robot_sample, in parallel over the
     robots), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
@@ -482,9 +482,11 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                                          steps_per_control, one)
                 robot_moved(run, results[i], segments[i], draws[i], memories, i, fallen)
             continue
-        for g in prange((m + lanes - 1) // lanes):
-            lo = g * lanes
-            size = min(m, lo + lanes) - lo
+        # groups of up to `lanes` robots, and at least one per thread while there are robots for it
+        group = min(lanes, (m + threads - 1) // threads)
+        for g in prange((m + group - 1) // group):
+            lo = g * group
+            size = min(m, lo + group) - lo
             p = np.empty((n_params, LANES))
             s = np.empty((N_STATE, LANES))
             left = np.empty(LANES)
@@ -624,5 +626,5 @@ def run_batch(
     with parallel_chunksize(0):  # equal shares: the running robots are kept together
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
-                    encoder_c, encoder_m, estimator_vector(control_cfg), lanes)
+                    encoder_c, encoder_m, estimator_vector(control_cfg), lanes, get_num_threads())
     return BatchResult(results, traces if record else None, physics_rate)
