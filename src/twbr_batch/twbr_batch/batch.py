@@ -66,6 +66,7 @@ from twbr_sim.dynamics import (
     advance_upright_lanes,
     derivatives,
     initial_state,
+    lane_group,
     substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
@@ -487,13 +488,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
         for g in prange((m + group - 1) // group):
             lo = g * group
             size = min(m, lo + group) - lo
-            p = np.empty((n_params, LANES))
-            s = np.empty((N_STATE, LANES))
-            left = np.empty(LANES)
-            right = np.empty(LANES)
-            work = np.empty((WORK_ROWS, N_STATE, LANES))
-            moving = np.ones(LANES, dtype=np.bool_)
-            fell = np.zeros(LANES, dtype=np.bool_)
+            p, s, left, right, work, moving, fell = lane_group(n_params)
             n_sub = substeps(params[running[lo]], h)
             same = True
             for j in range(size):

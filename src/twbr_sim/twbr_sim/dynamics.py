@@ -324,6 +324,14 @@ LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1
 
 
 @_lane
+def lane_group(n_params):
+    """A group's arrays, LANES wide: parameters, state, commands, RK4 work, moving (all True) and fell.
+    Allocated with this constant shape in a parallel kernel's body, the loops over them vectorise."""
+    return (np.empty((n_params, LANES)), np.empty((N_STATE, LANES)), np.empty(LANES), np.empty(LANES),
+            np.empty((WORK_ROWS, N_STATE, LANES)), np.ones(LANES, dtype=np.bool_), np.zeros(LANES, dtype=np.bool_))
+
+
+@_lane
 def advance_upright_lanes(p, s, cmd_left, cmd_right, h, n_steps, work, lanes, moving, fell):
     """advance_upright for lanes 0..lanes-1 that are `moving` (their robots sharing substeps): a lane that
     falls stops moving and its `fell` is set."""
@@ -360,12 +368,7 @@ def step_batch(params, states, commands, h, n_steps):
                 for _ in range(n_steps):
                     rk4_step(params[i], states[i], commands[i, 0], commands[i, 1], h, work)
             continue
-        p = np.empty((n_params, LANES))
-        s = np.empty((N_STATE, LANES))
-        left = np.empty(LANES)
-        right = np.empty(LANES)
-        work = np.empty((WORK_ROWS, N_STATE, LANES))
-        moving = np.ones(LANES, dtype=np.bool_)
+        p, s, left, right, work, moving, _fell = lane_group(n_params)
         for i in range(lanes):
             for k in range(n_params):
                 p[k, i] = params[lo + i, k]
