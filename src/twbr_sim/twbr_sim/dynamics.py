@@ -2,9 +2,9 @@
 
 One implementation serves every user: the equations are written for one lane of a structure of arrays
 (`lane_derivatives`). `rk4_step` advances one robot in place (a group of one lane), so the simulator node
-calls it at 1 kHz; `step_batch` steps groups of robots together through the same equations (`rk4_lanes`,
-loops over the robots that the compiler vectorises), in parallel; the benchmarks time both. Nothing here
-allocates per step.
+calls it at 1 kHz; `step_batch` and the batch engine step groups of robots together through the same
+equations (`rk4_lanes`, `advance_upright_lanes`: loops over the robots that the compiler vectorises), in
+parallel; the benchmarks time both. Nothing here allocates per step.
 
 State vector (S_* indices): forward travel x, its rate, pitch theta, its rate, yaw psi, its rate, the
 axle centre's position (x_c, y_c) in odom, the wheel angles gamma_L, gamma_R, and the two armature
