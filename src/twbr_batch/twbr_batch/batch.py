@@ -67,7 +67,7 @@ from twbr_sim.dynamics import (
     derivatives,
     initial_state,
     lane_group,
-    substeps,
+    shared_substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
@@ -177,16 +177,15 @@ T_VELOCITY_TRUE = TRACE_LAYOUT["velocity_true"]  # the axle's [m/s] (velocity: w
 N_TRACE = len(TRACE_LAYOUT)
 
 
-# What a robot's run carries from one sample to the next besides its result row (RESULT_LAYOUT, which
-# holds the running tallies): the sample index, the wheel torques being applied [N*m], the traction flags
-# and their sample counts, the world's and the planner's next due times [s], the references in effect and
+# What a robot's run carries from one sample to the next besides its result row (RESULT_LAYOUT: the running
+# tallies, and the physics steps, which give the sample index): the wheel torques being applied [N*m], the
+# traction flags and their sample counts, the world's and the planner's next due times [s], the references in effect and
 # the planner's next ones [m/s, rad/s], the stamp from which they apply [s], whether a plan is new and
 # whether any command has arrived.
 LOOP_LAYOUT = Layout((
-    "k", "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
+    "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
     "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded",
 ))
-L_K = LOOP_LAYOUT["k"]
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
 L_LIFTED = LOOP_LAYOUT["lifted"]
@@ -260,7 +259,7 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
     lp = loop[j]
     h = run[U_H]
     step_count = result[Z_PHYSICS_STEPS]
-    k = int(lp[L_K])
+    k = int(step_count) // int(run[U_STEPS_PER_CONTROL])  # the samples before this one
     t = step_count * h
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
@@ -392,10 +391,9 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
 
 
 @kernel
-def robot_moved(run, result, segment, draws, memories, j, fallen):
-    """Book robot j's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
+def robot_moved(run, result, segment, draws, fallen):
+    """Book a robot's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
     and move its target on."""
-    memories[0][j, L_K] += 1
     result[Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
     if fallen:
         result[Z_FALLEN] = 1.0
@@ -481,7 +479,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                 i = running[q]
                 fallen = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
                                          steps_per_control, one)
-                robot_moved(run, results[i], segments[i], draws[i], memories, i, fallen)
+                robot_moved(run, results[i], segments[i], draws[i], fallen)
             continue
         # groups of up to `lanes` robots, and at least one per thread while there are robots for it
         group = min(lanes, (m + threads - 1) // threads)
@@ -489,11 +487,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
             lo = g * group
             size = min(m, lo + group) - lo
             p, s, left, right, work, moving, fell = lane_group(n_params)
-            n_sub = substeps(params[running[lo]], h)
-            same = True
-            for j in range(size):
-                same = same and substeps(params[running[lo + j]], h) == n_sub
-            if same:
+            if shared_substeps(params, running[lo:lo + size], h) > 0:
                 for j in range(size):
                     i = running[lo + j]
                     for k in range(n_params):
@@ -515,7 +509,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                                               steps_per_control, one)
             for j in range(size):
                 i = running[lo + j]
-                robot_moved(run, results[i], segments[i], draws[i], memories, i, fell[j])
+                robot_moved(run, results[i], segments[i], draws[i], fell[j])
 
 
 def group_size(n: int) -> int:

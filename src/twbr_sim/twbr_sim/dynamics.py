@@ -323,6 +323,17 @@ def rk4_lanes(p, s, cmd_left, cmd_right, h, work, lanes, moving):
 LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1/L2 cache
 
 
+@_jit
+def shared_substeps(params, rows, h):
+    """The RK4 sub-steps per step of length h that the robots params[rows] all need; 0 when they differ
+    (their group then steps robot by robot)."""
+    n_sub = substeps(params[rows[0]], h)
+    for i in rows:
+        if substeps(params[i], h) != n_sub:
+            return 0
+    return n_sub
+
+
 @_lane
 def lane_group(n_params):
     """A group's arrays, LANES wide: parameters, state, commands, RK4 work, moving (all True) and fell.
@@ -358,11 +369,8 @@ def step_batch(params, states, commands, h, n_steps):
     for g in prange((n + LANES - 1) // LANES):
         lo = g * LANES
         lanes = min(n, lo + LANES) - lo
-        n_sub = substeps(params[lo], h)
-        same = True
-        for i in range(lo, lo + lanes):
-            same = same and substeps(params[i], h) == n_sub
-        if not same:
+        n_sub = shared_substeps(params, np.arange(lo, lo + lanes), h)
+        if n_sub == 0:
             work = np.empty((WORK_ROWS, N_STATE))
             for i in range(lo, lo + lanes):
                 for _ in range(n_steps):
