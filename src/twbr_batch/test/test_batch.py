@@ -85,25 +85,26 @@ def test_a_robot_runs_the_same_alone_and_among_others():
 
 
 def test_robots_stepped_together_run_as_each_alone():
-    # One group of lanes in which one robot falls (a 3 V supply) and the others end on their targets at
-    # different times: each robot's result and trace are its own run's to the bit. With a robot that needs
-    # two RK4 sub-steps (half the inductance) the group steps robot by robot, to the same results.
+    # More robots than run one by one (SERIAL_ROBOTS), so their physics steps in lane groups: some fall (a
+    # 3 V supply), the others end on their targets at different times, and each robot's result and trace
+    # are its own run's alone to the bit. With a robot that needs two RK4 sub-steps (half the inductance)
+    # its group steps robot by robot, to the same results.
     scenario = load_scenario(find_scenario("dynamic_target"))
-    rows = [robot_params(), robot_params({"supply_voltage": 3.0}), robot_params({"body_mass": 14.0}), robot_params()]
-    seeds = [1, 5, 2, 3]
-    for extra in ([], [robot_params({"armature_inductance": 0.0006})]):
-        group = rows + extra
-        together = batch.run_batch(scenario, seeds[:len(group)] + [4] * len(extra), np.stack(group),
-                                   lanes=len(group), record=True)
+    kinds = [robot_params(), robot_params({"supply_voltage": 3.0}), robot_params({"body_mass": 14.0})]
+    robots = [kinds[i % 3] for i in range(12)] + [robot_params({"armature_inductance": 0.0006})]
+    seeds = list(range(1, len(robots) + 1))
+    alone = [batch.run_batch(scenario, [seed], p[None, :], record=True) for seed, p in zip(seeds, robots, strict=True)]
+    for n in (12, 13):
+        assert n > batch.SERIAL_ROBOTS
+        together = batch.run_batch(scenario, seeds[:n], np.stack(robots[:n]), lanes=n, record=True)
         table = together.table
         assert table[1, batch.Z_FALLEN] == 1.0 and table[0, batch.Z_FALLEN] == 0.0
-        assert len(set(table[:, batch.Z_SAMPLES])) == len(group)  # every run ends at its own time
-        for i, p in enumerate(group):
-            seed = [*seeds, 4][i]
-            alone = batch.run_batch(scenario, [seed], p[None, :], record=True)
-            np.testing.assert_array_equal(table[i], alone.table[0], err_msg=f"robot {i}")
-            n = int(alone.table[0, batch.Z_SAMPLES])
-            np.testing.assert_array_equal(together.traces[i, :n], alone.traces[0, :n], err_msg=f"robot {i}")
+        assert len(set(table[:, batch.Z_SAMPLES])) >= 6  # the runs end at their own times
+        for i in range(n):
+            np.testing.assert_array_equal(table[i], alone[i].table[0], err_msg=f"robot {i}")
+            samples = int(alone[i].table[0, batch.Z_SAMPLES])
+            np.testing.assert_array_equal(together.traces[i, :samples], alone[i].traces[0, :samples],
+                                          err_msg=f"robot {i}")
 
 
 def test_mismatched_inputs_are_refused():
