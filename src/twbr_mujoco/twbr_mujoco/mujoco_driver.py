@@ -41,10 +41,10 @@ class MujocoDriver(SimNode):
     def new_simulator(self, robot: dict, cfg: dict, scenario: Scenario | None, seed: int) -> MujocoSimulator:
         return MujocoSimulator(robot, cfg, scenario, seed)
 
-    def publish_telemetry(self) -> None:
-        super().publish_telemetry()
+    def telemetry_messages(self) -> list[tuple]:
         if self.recording is not None:
-            self.recording.capture()
+            self.recording.capture()  # the state the telemetry describes, before the next step
+        return super().telemetry_messages()
 
     def run(self) -> None:
         try:

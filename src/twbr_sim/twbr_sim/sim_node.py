@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -234,7 +234,12 @@ class SimNode(Node):
         return Clock(), odom, imu
 
     def publish_telemetry(self) -> None:
-        """Everything else about the state just published: joints, tf, status, markers."""
+        self.send_telemetry(self.telemetry_messages())
+
+    def telemetry_messages(self) -> list[tuple]:
+        """(publisher, message) of everything else about the state just answered: joints, tf, status,
+        markers. Built before the step (they describe this state and its command) and sent apart, so that
+        lockstep can send them after the next state, while the controller computes."""
         sim = self.sim
         stamp = to_stamp(self.exchange.pending_ns)
         joints = JointState()
@@ -244,7 +249,7 @@ class SimNode(Node):
         joints.position = [float(e[J_ANGLE_LEFT]), float(e[J_ANGLE_RIGHT])]
         joints.velocity = [float(e[J_RATE_LEFT]), float(e[J_RATE_RIGHT])]
         joints.effort = list(sim.wheel_torques())
-        self.pub_joints.publish(joints)
+        out: list[tuple] = [(self.pub_joints, joints)]
 
         flags = (sim.fallen, sim.torque_saturated, sim.command_stale, sim.traction.lifted, sim.traction.slipping)
         due = self.publications.with_telemetry(sim.time, flags != self._status_flags, self.hosting_world)
@@ -255,18 +260,24 @@ class SimNode(Node):
             tf.child_frame_id = self._frame_base
             tr, pose = tf.transform.translation, self._odom_msg.pose.pose  # the pose odom went out with
             tr.x, tr.y, tr.z = pose.position.x, pose.position.y, pose.position.z
-            tf.transform.rotation = pose.orientation
-            self.pub_tf.publish(TFMessage(transforms=[tf]))
+            q = pose.orientation
+            tf.transform.rotation = Quaternion(x=q.x, y=q.y, z=q.z, w=q.w)  # odom's is refilled next state
+            out.append((self.pub_tf, TFMessage(transforms=[tf])))
         if self._status_flags is not None and flags[2] != self._status_flags[2]:
             self._report_command_stale(sim.command_stale)
         if due.status:
             self._status_flags = flags
-            self.pub_status.publish(self.status_message(stamp))
+            out.append((self.pub_status, self.status_message(stamp)))
         if due.markers:
             world = sim.world
-            self.pub_markers.publish(
-                world_markers(world.target(), world.obstacles(), world.capture_radius, stamp, self._frame_odom)
-            )
+            out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,
+                                                        stamp, self._frame_odom)))
+        return out
+
+    @staticmethod
+    def send_telemetry(messages: list[tuple]) -> None:
+        for publisher, msg in messages:
+            publisher.publish(msg)
 
     def _report_command_stale(self, stale: bool) -> None:
         if stale:
@@ -406,10 +417,12 @@ class SimNode(Node):
                     throttle_duration_sec=1.0,
                 )
             exchange.stepping()
-            # Telemetry once the state is answered: it no longer delays the handling of the answer.
-            self.publish_telemetry()
+            # The answered state's telemetry goes out after the next state: while the controller computes
+            # on it, not between the answer and the next state (the critical path of lockstep).
+            telemetry = self.telemetry_messages()
             self._step()
             self.publish_control_state()
+            self.send_telemetry(telemetry)
         self.publish_telemetry()
 
     def _run_realtime(self) -> None:
