@@ -125,3 +125,38 @@ def test_the_recorder_reports_what_it_has_matched_on_a_latched_status_topic(tmp_
         assert "/recorder/status" not in [t for r in reports for t in r.topics]  # its own status is not recorded
     finally:
         recorder.stop(timeout=10)
+
+
+def test_the_recorder_keeps_every_message_acknowledged_before_sigint_and_serves_its_parameters(
+        tmp_path, ros, ros_env):
+    # It takes its messages in batches: what arrived since the last batch must still reach the bag when
+    # SIGINT comes, in the order sent; and its services answer between batches, as any node's do.
+    from rcl_interfaces.srv import GetParameters
+    from rclpy.duration import Duration
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+
+    bag = tmp_path / "bag"
+    # Batches a minute apart: the first at start, the next long after SIGINT; these messages are waiting.
+    argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "--drain-period", "60",
+            "chatter:std_msgs/msg/String"]
+    recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
+    try:
+        pub = ros.node.create_publisher(String, "chatter", QoSProfile(depth=1000,
+                                                                       reliability=ReliabilityPolicy.RELIABLE))
+        assert ros.spin_until(lambda: pub.get_subscription_count() == 1, 30.0), recorder.output
+        client = ros.node.create_client(GetParameters, "/recorder/get_parameters")
+        assert client.wait_for_service(timeout_sec=10.0), recorder.output
+        future = client.call_async(GetParameters.Request(names=["use_sim_time"]))
+        assert ros.spin_until(future.done, 10.0), recorder.output
+        assert future.result().values[0].bool_value is False
+        for i in range(600):
+            pub.publish(String(data=str(i)))
+        assert pub.wait_for_all_acked(Duration(seconds=30))  # in the recorder's queue (~2 s: heartbeats)
+        recorder.interrupt()  # at once: these are still waiting for the next batch
+        assert recorder.proc.wait(timeout=10) == 0, recorder.output
+    finally:
+        recorder.stop(timeout=10)
+    stamps, texts = zip(*[(t, m.data) for t, m in read_messages(bag)["/chatter"]], strict=True)
+    assert list(texts) == [str(i) for i in range(600)]
+    assert list(stamps) == sorted(stamps)
