@@ -12,8 +12,9 @@ the wall-clock time the middleware received them. SIGINT/SIGTERM close the bag c
 
 The recorded subscriptions are drained every `--drain-period` (10 ms) instead of waking the process for
 each message: on a 2-core machine the recorder shares the CPUs with the control loop, and waking for each
-of ~1,800 messages a second cost it 27 % of a core, 16 % drained (benchmarks/README.md). Messages wait in
-their subscription's queue (depth 1000) meanwhile and are written in the order they were received.
+of ~7,000 messages a second (`make demo`) cost it 27-28 % of a core, 16-17 % drained
+(benchmarks/README.md). Messages wait in their subscription's queue (depth 1000) meanwhile and are
+written in the order they were received.
 """
 
 from __future__ import annotations
