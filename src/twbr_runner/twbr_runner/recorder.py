@@ -184,8 +184,10 @@ class Recorder(Node):
             self.get_logger().info(f"recording {topic} [{types[0]}]")
 
     def close(self) -> None:
-        self.drain()  # what arrived since the last drain, SIGINT's included
-        self.writer.close()
+        try:
+            self.drain()  # what arrived since the last drain, SIGINT's included
+        finally:
+            self.writer.close()  # the bag is closed even if the middleware is gone
         counts = ", ".join(f"{t} {n}" for t, n in sorted(self.writer.counts.items()))
         # The context may be shut down already (SIGINT): print rather than log to /rosout.
         print(f"[recorder] closed {self.writer.path}: {self.writer.total} messages ({counts})", file=sys.stderr,
