@@ -102,7 +102,7 @@ class Recorder(Node):
         self._recorded[topic] = self.create_subscription(message_class(msgtype), topic, _never_called, qos,
                                                          callback_group=self._drained, raw=True)
 
-    def drain(self) -> int:
+    def drain(self) -> None:
         """Write every message waiting on the recorded subscriptions, in the order received."""
         batch = []
         now = time.time_ns()
@@ -117,7 +117,6 @@ class Recorder(Node):
         batch.sort(key=lambda m: m[0])  # stable: one topic's messages keep their order
         for stamp, topic, data in batch:
             self.writer.write(topic, stamp, data)
-        return len(batch)
 
     def _report_matches(self) -> None:
         """Log each new publisher match: a runner starts the clock only once its sources are matched."""
@@ -189,7 +188,7 @@ class Recorder(Node):
         finally:
             self.writer.close()  # the bag is closed even if the middleware is gone
         counts = ", ".join(f"{t} {n}" for t, n in sorted(self.writer.counts.items()))
-        # The context may be shut down already (SIGINT): print rather than log to /rosout.
+        # The context may be shut down already (an external shutdown): print rather than log to /rosout.
         print(f"[recorder] closed {self.writer.path}: {self.writer.total} messages ({counts})", file=sys.stderr,
               flush=True)
 

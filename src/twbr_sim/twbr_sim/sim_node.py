@@ -203,8 +203,7 @@ class SimNode(Node):
         if not again:
             if clock_due:
                 self.pub_clock.publish(self._clock_msg)
-            for publisher, msg in world:
-                publisher.publish(msg)
+            publish_each(world)
         self.pub_odom.publish(self._odom_msg)
         self.pub_imu.publish(self._imu_msg)
         if self.pub_truth is not None and not again:
@@ -234,7 +233,7 @@ class SimNode(Node):
         return Clock(), odom, imu
 
     def publish_telemetry(self) -> None:
-        self.send_telemetry(self.telemetry_messages())
+        publish_each(self.telemetry_messages())
 
     def telemetry_messages(self) -> list[tuple]:
         """(publisher, message) of everything else about the state just answered: joints, tf, status,
@@ -273,11 +272,6 @@ class SimNode(Node):
             out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,
                                                         stamp, self._frame_odom)))
         return out
-
-    @staticmethod
-    def send_telemetry(messages: list[tuple]) -> None:
-        for publisher, msg in messages:
-            publisher.publish(msg)
 
     def _report_command_stale(self, stale: bool) -> None:
         if stale:
@@ -422,7 +416,7 @@ class SimNode(Node):
             telemetry = self.telemetry_messages()
             self._step()
             self.publish_control_state()
-            self.send_telemetry(telemetry)
+            publish_each(telemetry)
         self.publish_telemetry()
 
     def _run_realtime(self) -> None:
@@ -457,6 +451,12 @@ class SimNode(Node):
                 ticks.sent(now)
         if ticks.telemetry_by is not None:
             self.publish_telemetry()
+
+
+def publish_each(messages: list[tuple]) -> None:
+    """(publisher, message) pairs, in order: the world with a state, telemetry after it."""
+    for publisher, msg in messages:
+        publisher.publish(msg)
 
 
 def main(args: list[str] | None = None) -> int:
