@@ -84,22 +84,29 @@ def test_a_robot_runs_the_same_alone_and_among_others():
     assert many[:, batch.Z_SAMPLES].min() < many[:, batch.Z_SAMPLES].max()  # runs of different lengths
 
 
-def test_robots_stepped_together_run_as_each_alone():
+@pytest.mark.parametrize("sim", [None, {**sensor_preset("realistic"), "traction.friction": 0.05}],
+                         ids=["ideal", "noisy-slippery"])
+def test_robots_stepped_together_run_as_each_alone(sim):
     # More robots than run one by one (SERIAL_ROBOTS), so their physics steps in lane groups: some fall (a
     # 3 V supply), the others end on their targets at different times, and each robot's result and trace
     # are its own run's alone to the bit. With a robot that needs two RK4 sub-steps (half the inductance)
-    # its group steps robot by robot, to the same results.
+    # its group steps robot by robot, to the same results. With noisy sensors and little friction the
+    # samples read the state's derivative (the IMU) and wheel loads (hundreds of slip events), which the
+    # lane groups compute vectorised and a robot alone in its sample.
     scenario = load_scenario(find_scenario("dynamic_target"))
     kinds = [robot_params(), robot_params({"supply_voltage": 3.0}), robot_params({"body_mass": 14.0})]
     robots = [kinds[i % 3] for i in range(12)] + [robot_params({"armature_inductance": 0.0006})]
     seeds = list(range(1, len(robots) + 1))
-    alone = [batch.run_batch(scenario, [seed], p[None, :], record=True) for seed, p in zip(seeds, robots, strict=True)]
+    alone = [batch.run_batch(scenario, [seed], p[None, :], record=True, sim=sim)
+             for seed, p in zip(seeds, robots, strict=True)]
     for n in (12, 13):
         assert n > batch.SERIAL_ROBOTS
-        together = batch.run_batch(scenario, seeds[:n], np.stack(robots[:n]), lanes=n, record=True)
+        together = batch.run_batch(scenario, seeds[:n], np.stack(robots[:n]), lanes=n, record=True, sim=sim)
         table = together.table
         assert table[1, batch.Z_FALLEN] == 1.0 and table[0, batch.Z_FALLEN] == 0.0
         assert len(set(table[:, batch.Z_SAMPLES])) >= 6  # the runs end at their own times
+        if sim is not None:
+            assert table[:, batch.Z_SLIP_EVENTS].sum() > 1000 and table[:, batch.Z_PITCH_ERROR_SQUARES].min() > 0.0
         for i in range(n):
             np.testing.assert_array_equal(table[i], alone[i].table[0], err_msg=f"robot {i}")
             samples = int(alone[i].table[0, batch.Z_SAMPLES])

@@ -23,7 +23,15 @@ from typing import Any
 
 import numpy as np
 
-from twbr_common.jit import get_num_threads, inline_kernel, kernel, parallel_chunksize, parallel_kernel, prange
+from twbr_common.jit import (
+    get_num_threads,
+    inline_kernel,
+    kernel,
+    lane_kernel,
+    parallel_chunksize,
+    parallel_kernel,
+    prange,
+)
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due
@@ -66,6 +74,7 @@ from twbr_sim.dynamics import (
     advance_upright_lanes,
     derivatives,
     initial_state,
+    lane_derivatives,
     lane_group,
     shared_substeps,
 )
@@ -81,7 +90,7 @@ from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
 from twbr_sim.simulator import SENSOR_SPECS, SIM_SPECS, steps_per_publish
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
-from twbr_sim.traction import traction_flags, wheel_loads
+from twbr_sim.traction import lane_wheel_loads, traction_flags, wheel_loads
 from twbr_sim.world import (
     N_SEGMENT,
     N_TALLY,
@@ -181,10 +190,11 @@ N_TRACE = len(TRACE_LAYOUT)
 # tallies, and the physics steps, which give the sample index): the wheel torques being applied [N*m], the
 # traction flags and their sample counts, the world's and the planner's next due times [s], the references in effect and
 # the planner's next ones [m/s, rad/s], the stamp from which they apply [s], whether a plan is new and
-# whether any command has arrived.
+# whether any command has arrived, and whether the physics left the state's derivative and wheel loads for
+# the sample (computed there in lanes, vectorised; else by the sample itself).
 LOOP_LAYOUT = Layout((
     "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
-    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded",
+    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded", "derived",
 ))
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
@@ -201,6 +211,7 @@ L_NEXT_W = LOOP_LAYOUT["next_w"]
 L_COMMAND_STAMP = LOOP_LAYOUT["command_stamp"]
 L_NEW_PLAN = LOOP_LAYOUT["new_plan"]
 L_COMMANDED = LOOP_LAYOUT["commanded"]
+L_DERIVED = LOOP_LAYOUT["derived"]
 N_LOOP = len(LOOP_LAYOUT)
 
 
@@ -274,7 +285,9 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
     odom_yaw = state[S_PSI]
     odom_velocity = state[S_XD]
     yaw_rate = state[S_PSID]
-    if sensors or friction > 0.0:
+    derived = lp[L_DERIVED] != 0.0  # by the physics, in lanes
+    lp[L_DERIVED] = 0.0
+    if (sensors or friction > 0.0) and not derived:
         derivatives(p, state, lp[L_LEFT], lp[L_RIGHT], derivative[j])  # under the command applied now
     if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
         imu_sample(p, imu_c, imu_m, generator, state, derivative[j], reading[j])
@@ -292,7 +305,8 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
             pitch = estimator_m[j, E_PITCH]
             pitch_rate = estimator_m[j, E_PITCH_RATE]
     if friction > 0.0:
-        wheel_loads(p, state, derivative[j], loads[j])
+        if not derived:
+            wheel_loads(p, state, derivative[j], loads[j])
         now_lifted, now_slipping = traction_flags(loads[j], friction)
         result[Z_LIFT_EVENTS] += 1 if now_lifted and lp[L_LIFTED] == 0.0 else 0
         result[Z_SLIP_EVENTS] += 1 if now_slipping and lp[L_SLIPPING] == 0.0 else 0
@@ -413,27 +427,41 @@ def robot_end(run, result, memories, j):
     result[Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
 
 
+@lane_kernel
+def derive_lanes(p, s, left, right, ds, loads, lanes, friction):
+    """The derivative of lanes 0..lanes-1 under their commands (as the sample would compute it) and, with
+    friction, their wheel loads: the same equations as the sample's, in loops over the robots."""
+    for i in range(lanes):
+        lane_derivatives(p, i, s, left[i], right[i], ds)
+    if friction > 0.0:
+        for i in range(lanes):
+            lane_wheel_loads(p, i, s, ds, loads)
+
+
 SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread, one by one
 
 
 @kernel
-def _sample(i, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
-            traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories):
-    """Robot i's sample (robot_sample); True when its run ends there, its result then complete."""
-    trace = traces[i] if traces.shape[0] > 0 else traces[0]  # (0, N_TRACE): nothing recorded
-    if robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i], obstacle_velocity[i], radii,
-                    profile, results[i], trace, imu_c, imu_m[i], generators[i], encoder_c, encoder_m[i],
-                    estimator_q, memories, i):
-        robot_end(run, results[i], memories, i)
-        return True
-    return False
+def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
+             profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories):
+    """The samples (robot_sample) of running[lo:hi]; ended[q]: robot running[q]'s run ends there, its result
+    then complete. One call per share of robots: a call passes its arrays with reference counting, which
+    cost more than a sample's arithmetic when it was made per robot."""
+    for q in range(lo, hi):
+        i = running[q]
+        trace = traces[i] if traces.shape[0] > 0 else traces[0]  # (0, N_TRACE): nothing recorded
+        ended[q] = robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i],
+                                obstacle_velocity[i], radii, profile, results[i], trace, imu_c, imu_m[i],
+                                generators[i], encoder_c, encoder_m[i], estimator_q, memories, i)
+        if ended[q]:
+            robot_end(run, results[i], memories, i)
 
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes, threads):
-    """All robots' runs, sample by sample: every running robot's sample (robot_sample, in parallel over the
-    robots), then their physics until the next sample in groups of `lanes` robots
+    """All robots' runs, sample by sample: every running robot's sample (robot_sample, a share of the robots per
+    thread), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
     robot whose run has ended leaves the groups, so they stay full. Every robot's result is the same to
     the bit whoever its neighbours are (test_batch); a group whose robots need different numbers of RK4
@@ -451,6 +479,10 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
     memories = new_memories(n, run, radii.shape[0])
     loop = memories[0]
+    derivative = memories[11]
+    loads = memories[14]
+    friction = run[U_FRICTION]
+    derive = run[U_SENSORS] != 0.0 or friction > 0.0  # the samples read the state's derivative
     for i in range(n):
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
     running = np.arange(n)  # the robots whose run goes on, in order
@@ -458,15 +490,15 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     n_running = n
     while n_running > 0:
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
-            for q in range(n_running):
-                ended[q] = _sample(running[q], params, states, c, a, run, segments, obstacle_start,
-                                   obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
-                                   encoder_c, encoder_m, estimator_q, memories)
+            _samples(running, 0, n_running, ended, params, states, c, a, run, segments, obstacle_start,
+                     obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
+                     encoder_m, estimator_q, memories)
         else:
-            for q in prange(n_running):
-                ended[q] = _sample(running[q], params, states, c, a, run, segments, obstacle_start,
-                                   obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
-                                   encoder_c, encoder_m, estimator_q, memories)
+            share = (n_running + threads - 1) // threads
+            for g in prange(threads):
+                _samples(running, min(g * share, n_running), min((g + 1) * share, n_running), ended, params,
+                         states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
+                         traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories)
         m = 0
         for q in range(n_running):
             if not ended[q]:
@@ -501,6 +533,17 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                     i = running[lo + j]
                     for k in range(N_STATE):
                         states[i, k] = s[k, j]
+                if derive:  # the next sample's derivative and wheel loads, vectorised here
+                    ds = np.empty((N_STATE, LANES))
+                    wl = np.empty((N_TRACTION_OUTPUTS, LANES))
+                    derive_lanes(p, s, left, right, ds, wl, size, friction)
+                    for j in range(size):
+                        i = running[lo + j]
+                        for k in range(N_STATE):
+                            derivative[i, k] = ds[k, j]
+                        for k in range(N_TRACTION_OUTPUTS):
+                            loads[i, k] = wl[k, j]
+                        loop[i, L_DERIVED] = 1.0
             else:
                 one = np.empty((WORK_ROWS, N_STATE))
                 for j in range(size):

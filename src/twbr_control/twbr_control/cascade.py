@@ -307,7 +307,7 @@ def _cascade(c, k, velocity, yaw_rate, pitch, pitch_rate, dt):
     return pitch_ref, common, differential, pitch_ref_limited, pitch_limited or differential != requested
 
 
-@kernel
+@inline_kernel
 def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_rate, pitch, pitch_rate,
                     cmd_vel_stale, hold, command_stamp):
     """Wheel torques for the state stamped `stamp` [s] into `out` (O_*), the references from the command stamped

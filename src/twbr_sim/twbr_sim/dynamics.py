@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from twbr_common.jit import kernel, lane_kernel, parallel_kernel, prange
+from twbr_common.jit import inline_kernel, kernel, lane_kernel, parallel_kernel, prange
 from twbr_common.layout import Layout
 from twbr_common.trig import sincos
 from twbr_sim.robot_params import (
@@ -206,7 +206,7 @@ def wheel_rates(p, x_dot, yaw_rate):
     return lane_wheel_rates(column(p), 0, x_dot, yaw_rate)
 
 
-@_jit
+@inline_kernel
 def derivatives(p, s, cmd_left, cmd_right, out):
     """Time derivative of state `s` under commanded wheel torques, written into `out`."""
     lane_derivatives(column(p), 0, column(s), cmd_left, cmd_right, column(out))

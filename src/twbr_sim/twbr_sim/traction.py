@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import math
 
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel, lane_kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
-from twbr_sim.dynamics import S_IL, S_IR, S_PSID, S_TH, S_THD, S_XD, wheel_rates
+from twbr_common.trig import sincos
+from twbr_sim.dynamics import S_IL, S_IR, S_PSID, S_TH, S_THD, S_XD, column, lane_wheel_rates
 from twbr_sim.robot_params import D_HALF_D, D_INV_R, D_NK, P_CA, P_D, P_G, P_J, P_L, P_MB, P_MW, P_R
 
 TRACTION_SPECS: tuple[ParamSpec, ...] = (
@@ -37,47 +38,56 @@ T_DEMAND_RIGHT = OUTPUT_LAYOUT["demand_right"]
 N_OUTPUTS = len(OUTPUT_LAYOUT)
 
 
-@kernel
-def wheel_loads(p, s, ds, out):
-    """Normal forces and friction demands for state `s` and its derivative `ds`, into `out` (T_*)."""
-    pitch = s[S_TH]
-    sn = math.sin(pitch)
-    cs = math.cos(pitch)
-    pitch_rate = s[S_THD]
-    yaw_rate = s[S_PSID]
-    x_dot = s[S_XD]
-    x_ddot = ds[S_XD]
-    pitch_ddot = ds[S_THD]
-    yaw_ddot = ds[S_PSID]
-    l = p[P_L]
-    m_b = p[P_MB]
-    m_w = p[P_MW]
-    r = p[P_R]
+@lane_kernel
+def lane_wheel_loads(p, i, s, ds, out):
+    """Normal forces and friction demands of lane i (structure of arrays, as dynamics.lane_derivatives) for
+    its state s[:, i] and derivative ds[:, i], into out[:, i] (T_*). Plain arithmetic (the dynamics' sincos,
+    sqrt for the demands' magnitude), so the batch computes it vectorised over its robots."""
+    pitch = s[S_TH, i]
+    sn, cs = sincos(pitch)
+    pitch_rate = s[S_THD, i]
+    yaw_rate = s[S_PSID, i]
+    x_dot = s[S_XD, i]
+    x_ddot = ds[S_XD, i]
+    pitch_ddot = ds[S_THD, i]
+    yaw_ddot = ds[S_PSID, i]
+    l = p[P_L, i]
+    m_b = p[P_MB, i]
+    m_w = p[P_MW, i]
+    r = p[P_R, i]
     # Vertical: the body's centre of mass at height r + l cos(theta).
     z_ddot = -l * (sn * pitch_ddot + cs * pitch_rate * pitch_rate)
-    total = (m_b + 2.0 * m_w) * p[P_G] + m_b * z_ddot
+    total = (m_b + 2.0 * m_w) * p[P_G, i] + m_b * z_ddot
     # Lateral accelerations (+ to the left): the axle's centripetal one, and the centre of mass's, which sits
     # l sin(theta) ahead of the axle.
     a_axle = x_dot * yaw_rate
     a_body = a_axle + l * (sn * yaw_ddot + 2.0 * cs * pitch_rate * yaw_rate)
     lateral = m_b * a_body + 2.0 * m_w * a_axle
-    transfer = (m_b * a_body * (r + l * cs) + 2.0 * m_w * a_axle * r) / p[P_D]
+    transfer = (m_b * a_body * (r + l * cs) + 2.0 * m_w * a_axle * r) / p[P_D, i]
     normal_l = 0.5 * total - transfer
     normal_r = 0.5 * total + transfer
     # Longitudinal: J gamma_ddot = tau - c_alpha (gamma_dot - theta_dot) - F r.
-    rate_l, rate_r = wheel_rates(p, x_dot, yaw_rate)
-    half = yaw_ddot * p[D_HALF_D]
-    acc_l = (x_ddot - half) * p[D_INV_R]
-    acc_r = (x_ddot + half) * p[D_INV_R]
-    f_l = (p[D_NK] * s[S_IL] - p[P_CA] * (rate_l - pitch_rate) - p[P_J] * acc_l) / r
-    f_r = (p[D_NK] * s[S_IR] - p[P_CA] * (rate_r - pitch_rate) - p[P_J] * acc_r) / r
+    rate_l, rate_r = lane_wheel_rates(p, i, x_dot, yaw_rate)
+    half = yaw_ddot * p[D_HALF_D, i]
+    acc_l = (x_ddot - half) * p[D_INV_R, i]
+    acc_r = (x_ddot + half) * p[D_INV_R, i]
+    f_l = (p[D_NK, i] * s[S_IL, i] - p[P_CA, i] * (rate_l - pitch_rate) - p[P_J, i] * acc_l) / r
+    f_r = (p[D_NK, i] * s[S_IR, i] - p[P_CA, i] * (rate_r - pitch_rate) - p[P_J, i] * acc_r) / r
     share_l = 0.5
     if total > 0.0:
         share_l = min(max(normal_l / total, 0.0), 1.0)
-    out[T_NORMAL_LEFT] = normal_l
-    out[T_NORMAL_RIGHT] = normal_r
-    out[T_DEMAND_LEFT] = math.hypot(f_l, share_l * lateral)
-    out[T_DEMAND_RIGHT] = math.hypot(f_r, (1.0 - share_l) * lateral)
+    lateral_l = share_l * lateral
+    lateral_r = (1.0 - share_l) * lateral
+    out[T_NORMAL_LEFT, i] = normal_l
+    out[T_NORMAL_RIGHT, i] = normal_r
+    out[T_DEMAND_LEFT, i] = math.sqrt(f_l * f_l + lateral_l * lateral_l)
+    out[T_DEMAND_RIGHT, i] = math.sqrt(f_r * f_r + lateral_r * lateral_r)
+
+
+@inline_kernel
+def wheel_loads(p, s, ds, out):
+    """Normal forces and friction demands for state `s` and its derivative `ds`, into `out` (T_*)."""
+    lane_wheel_loads(column(p), 0, column(s), column(ds), column(out))
 
 
 @kernel
