@@ -60,7 +60,10 @@ from twbr_sim.scenario_files import SENSOR_PRESETS, find_scenario, sensor_preset
 PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "body_inertia_roll",
              "body_inertia_pitch", "body_inertia_yaw", "motor_constant")
 ENGINES = ("batch", "scalar")
-CHUNK = 250  # robots per batch: large enough to keep the threads busy, small enough for a steady progress bar
+# Robots per batch. A batch's last runs step with its lane groups part-empty, once per batch: 1000 runs of
+# dynamic_obstacles took 2.64 s in one batch, 2.97-3.14 s in four of 250 (benchmarks/README.md, issue 19
+# part 5). The progress bar moves once per batch.
+CHUNK = 1000
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
