@@ -3,8 +3,8 @@
 - Counted: one robot of the scenario runs through the batch kernel itself, interpreted on counting
   numbers (flop_count.py, in a TWBR_JIT=off process), for --count-seconds of sim time: every operation the
   dynamics, motors, controller, planner and world execute is tallied, per component.
-- Achieved: the batch engine's robot-steps/s at N = 10000 (the closed loop with the default, robust
-  planner, as bench_batch.py) times the counted flops per robot-step.
+- Achieved: the batch engine's robot-steps/s at N = 10000 (the closed loop with the planner's
+  --planner-method, robust by default, for the counted run too) times the counted flops per robot-step.
 - Peak: nominal (cores x clock x 16 flops per cycle: two 4-wide FMA pipes, AVX2), and measured by a kernel
   of independent vectorised FMA chains on every core, the most this machine's numba code reaches.
 - What limits: the physics alone (dynamics.step_batch, N = 10000) against the closed loop, and the time
@@ -39,7 +39,8 @@ from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
 components = {{"dynamics": "advance_upright", "controller": "cascade_compute", "planner": "plan_step",
-              "world": "assess_obstacles", "obstacles": "obstacle_positions_at", "target": "target_at"}}
+              "world": "assess_obstacles", "obstacles": "obstacle_positions_at", "target": "target_at",
+              "sample's derivative": "derivatives", "wheel loads": "wheel_loads"}}
 by_component = {{name: {{}} for name in components}}
 
 def attribute(name, function):
@@ -67,14 +68,16 @@ def run_counting(*args):
 
 batch._run_robots = run_counting
 scenario = load_scenario(find_scenario({scenario!r}))
-out = batch.run_batch(scenario, [scenario.seed], robot_params()[None, :], duration={seconds!r})
+out = batch.run_batch(scenario, [scenario.seed], robot_params()[None, :], duration={seconds!r},
+                      planner={{"method": {method!r}}})
 print(json.dumps({{"robot_steps": out.robot_steps, "total": total, "components": by_component}}))
 """
 
 
-def count_flops(scenario: str, seconds: float) -> dict:
+def count_flops(scenario: str, seconds: float, method: str) -> dict:
     env = {**os.environ, "TWBR_JIT": "off"}
-    done = subprocess.run([sys.executable, "-c", COUNT.format(here=str(HERE), scenario=scenario, seconds=seconds)],
+    done = subprocess.run([sys.executable, "-c", COUNT.format(here=str(HERE), scenario=scenario, seconds=seconds,
+                                                              method=method)],
                           env=env, capture_output=True, text=True, timeout=1800)
     if done.returncode != 0:
         raise RuntimeError(f"counting failed:\n{done.stderr[-3000:]}")
@@ -141,6 +144,7 @@ def main() -> int:
     ap.add_argument("--count-seconds", type=float, default=5.0, help="sim time of the counted run")
     ap.add_argument("--sim-seconds", type=float, default=5.0, help="sim time per robot of the rate run")
     ap.add_argument("--robots", type=int, default=10000)
+    ap.add_argument("--planner-method", default="robust", help="the planner's method (issue 19's target: robust)")
     ap.add_argument("--json", help="write the figures to this file")
     args = ap.parse_args()
 
@@ -150,13 +154,14 @@ def main() -> int:
     from twbr_sim.scenario import load_scenario
     from twbr_sim.scenario_files import find_scenario
 
-    counted = count_flops(args.scenario, args.count_seconds)
+    counted = count_flops(args.scenario, args.count_seconds, args.planner_method)
     steps = counted["robot_steps"]
     total = counted["total"]
     arithmetic = sum(total.get(k, 0) for k in ("add", "sub", "mul", "div"))
     per_step = arithmetic / steps
     trig = (total.get("sin", 0) + total.get("cos", 0)) / steps
-    result: dict = {"scenario": args.scenario, "counted_robot_steps": steps, "flops_per_robot_step": per_step,
+    result: dict = {"scenario": args.scenario, "planner_method": args.planner_method, "counted_robot_steps": steps,
+                    "flops_per_robot_step": per_step,
                     "compares_per_robot_step": total.get("compare", 0) / steps,
                     "math_calls_per_robot_step": {k: v / steps for k, v in sorted(total.items())
                                                   if k not in ("add", "sub", "mul", "div", "compare")}}
@@ -168,15 +173,16 @@ def main() -> int:
         n = sum(tally.get(k, 0) for k in ("add", "sub", "mul", "div")) / steps
         result[f"flops_per_robot_step_{name}"] = n
         rest -= n
-        print(f"  {name:>10}: {n:7.1f} flops per robot-step")
+        print(f"  {name:>19}: {n:7.1f} flops per robot-step")
     result["flops_per_robot_step_loop"] = rest
-    print(f"  {'the loop':>10}: {rest:7.1f} flops per robot-step (the batch loop's own: limits, tallies, timing)")
+    print(f"  {'the loop':>19}: {rest:7.1f} flops per robot-step (the batch loop's own: limits, tallies, timing)")
 
     scenario = load_scenario(find_scenario(args.scenario))
     run_batch(scenario, [1], robot_params()[None, :], duration=0.1)  # compile or load the kernels first
     n = args.robots
     started = time.perf_counter()
-    out = run_batch(scenario, list(range(1, n + 1)), np.tile(robot_params(), (n, 1)), duration=args.sim_seconds)
+    out = run_batch(scenario, list(range(1, n + 1)), np.tile(robot_params(), (n, 1)), duration=args.sim_seconds,
+                    planner={"method": args.planner_method})
     rate = out.robot_steps / (time.perf_counter() - started)
     achieved = rate * per_step / 1e9
     cores = os.cpu_count() or 1
