@@ -438,6 +438,15 @@ def derive_lanes(p, s, left, right, ds, loads, lanes, friction):
             lane_wheel_loads(p, i, s, ds, loads)
 
 
+@inline_kernel
+def from_lanes(lanes, rows, running, lo, size):
+    """Lane j of a group (lanes[:, j]) into row running[lo + j] of a per-robot array, for j < size."""
+    for j in range(size):
+        i = running[lo + j]
+        for k in range(lanes.shape[0]):
+            rows[i, k] = lanes[k, j]
+
+
 SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread, one by one
 
 
@@ -529,21 +538,15 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                     left[j] = loop[i, L_LEFT]
                     right[j] = loop[i, L_RIGHT]
                 advance_upright_lanes(p, s, left, right, h, steps_per_control, work, size, moving, fell)
-                for j in range(size):
-                    i = running[lo + j]
-                    for k in range(N_STATE):
-                        states[i, k] = s[k, j]
+                from_lanes(s, states, running, lo, size)
                 if derive:  # the next sample's derivative and wheel loads, vectorised here
                     ds = np.empty((N_STATE, LANES))
                     wl = np.empty((N_TRACTION_OUTPUTS, LANES))
                     derive_lanes(p, s, left, right, ds, wl, size, friction)
+                    from_lanes(ds, derivative, running, lo, size)
+                    from_lanes(wl, loads, running, lo, size)
                     for j in range(size):
-                        i = running[lo + j]
-                        for k in range(N_STATE):
-                            derivative[i, k] = ds[k, j]
-                        for k in range(N_TRACTION_OUTPUTS):
-                            loads[i, k] = wl[k, j]
-                        loop[i, L_DERIVED] = 1.0
+                        loop[running[lo + j], L_DERIVED] = 1.0
             else:
                 one = np.empty((WORK_ROWS, N_STATE))
                 for j in range(size):
