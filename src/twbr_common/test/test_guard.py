@@ -153,3 +153,14 @@ def test_decimator_restarts_its_schedule_when_time_goes_back():
     assert [d.due(t / 200.0) for t in range(0, 21)].count(True) == 3  # 0, 0.05, 0.1
     assert d.due(0.0)  # a restarted simulator
     assert not d.due(0.005) and d.due(0.05)
+
+
+def test_would_be_due_answers_as_due_without_taking_the_instant():
+    peek, take = Decimator(20.0), Decimator(20.0)
+    times = [t / 200.0 for t in range(0, 41)] + [0.0, 0.005, 0.05]  # then a restarted simulator
+    for t in times:
+        answer = peek.would_be_due(t)
+        assert answer == peek.would_be_due(t)  # asking again changes nothing
+        assert answer == take.due(t)
+        if answer:
+            peek.due(t)

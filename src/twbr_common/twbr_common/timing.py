@@ -46,6 +46,10 @@ class Decimator:
         self._next = float("-inf")
         self._last: float | None = None
 
+    def would_be_due(self, t: float) -> bool:
+        """What due(t) would answer, without taking the instant."""
+        return (self._last is not None and t < self._last) or _is_due(t, self._next)
+
     def due(self, t: float) -> bool:
         if self._last is not None and t < self._last:
             self.restart()
