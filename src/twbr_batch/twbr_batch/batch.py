@@ -261,6 +261,12 @@ def robot_begin(j, run, result, memories, imu_c, imu_m, generator):
 
 
 @inline_kernel
+def reads_derivative(run):
+    """Whether a sample reads the state's derivative: for the sensors' models or the traction tally."""
+    return run[U_SENSORS] != 0.0 or run[U_FRICTION] > 0.0
+
+
+@inline_kernel
 def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result, trace,
                  imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, j):
     """One sample of robot j's run, as run_closed_loop's: sense the state, assess the world, plan, control.
@@ -287,7 +293,7 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
     yaw_rate = state[S_PSID]
     derived = lp[L_DERIVED] != 0.0  # by the physics, in lanes
     lp[L_DERIVED] = 0.0
-    if (sensors or friction > 0.0) and not derived:
+    if reads_derivative(run) and not derived:
         derivatives(p, state, lp[L_LEFT], lp[L_RIGHT], derivative[j])  # under the command applied now
     if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
         imu_sample(p, imu_c, imu_m, generator, state, derivative[j], reading[j])
@@ -491,7 +497,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     derivative = memories[11]
     loads = memories[14]
     friction = run[U_FRICTION]
-    derive = run[U_SENSORS] != 0.0 or friction > 0.0  # the samples read the state's derivative
+    derive = reads_derivative(run)
     for i in range(n):
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
     running = np.arange(n)  # the robots whose run goes on, in order
