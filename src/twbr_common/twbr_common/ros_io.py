@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import struct
-
 from builtin_interfaces.msg import Time
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -33,17 +31,6 @@ def stamp_ns(stamp: Time) -> int:
 
 def stamp_seconds(stamp: Time) -> float:
     return stamp.sec + stamp.nanosec * 1e-9
-
-
-def header_stamp_seconds(data: bytes) -> float | None:
-    """The header stamp [s] of a serialized message whose first field is a std_msgs/Header, read from its
-    first 12 bytes without deserializing the rest; None unless the bytes are plain CDR (encapsulation
-    0x0000 big or 0x0001 little endian: the sec int32 and nanosec uint32 right after it), for the caller to
-    deserialize then."""
-    if len(data) < 12 or data[0] != 0 or data[1] not in (0, 1):
-        return None
-    sec, nanosec = struct.unpack_from("<iI" if data[1] == 1 else ">iI", data, 4)
-    return sec + nanosec * 1e-9
 
 
 def flush_publishers(node: Node, timeout_s: float = 1.0) -> bool:

@@ -1,6 +1,6 @@
 """controller_node: the cascaded PID controller as a ROS 2 node (a thin adapter over twbr_control.cascade).
 
-Subscribes odom and imu (sensor-data QoS) and cmd_vel (Twist, or TwistStamped with
+Subscribes odom and imu (sensor-data QoS; read from their bytes, twbr_common.cdr) and cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel); publishes wheel_torque_cmd, stamped with the state it was computed from (what
 a lockstep simulator waits for), and controller_state. It computes once per state, at most at `rate`,
 so it runs in sim time (use_sim_time, /clock) and in wall time alike. Service ~/enable (SetBool).
@@ -20,6 +20,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
+from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, odom_twist
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import RATE_LIMIT
@@ -53,8 +54,9 @@ class ControllerNode(Node):
 
         self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
         self.pub_state = self.create_publisher(ControllerState, "controller_state", SENSOR_PUB_QOS)
-        self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
-        self.create_subscription(Imu, "imu", self._on_imu, SENSOR_SUB_QOS)
+        # Raw: the few fields the controller uses are read from the bytes (twbr_common.cdr).
+        self.create_subscription(Odometry, "odom", self._on_odom_bytes, SENSOR_SUB_QOS, raw=True)
+        self.create_subscription(Imu, "imu", self._on_imu_bytes, SENSOR_SUB_QOS, raw=True)
         if stamped:
             self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, COMMAND_QOS)
         else:
@@ -89,38 +91,50 @@ class ControllerNode(Node):
     def _admit(self, stream: str, stamp: float, values: tuple[float, ...]) -> bool:
         return self.inputs.admit(stream, stamp, values, self._now())
 
-    def _on_odom(self, msg: Odometry) -> None:
-        stamp = stamp_seconds(msg.header.stamp)
-        velocity, yaw_rate = msg.twist.twist.linear.x, msg.twist.twist.angular.z
-        if self._admit("odom", stamp, (velocity, yaw_rate)):
-            self._velocity = velocity
-            self._stamps["odom"] = msg.header.stamp
-            self._act(*self.sync.offer_odom(stamp, velocity, yaw_rate))
+    def _on_odom_bytes(self, data: bytes) -> None:
+        odom = odom_twist(data)
+        if odom is None:
+            self.inputs.dropped("odom", "not a nav_msgs/Odometry")
+        else:
+            self._on_odom(odom)
 
-    def _on_imu(self, msg: Imu) -> None:
-        stamp = stamp_seconds(msg.header.stamp)
-        raw = msg.orientation_covariance[0] == -1.0
-        gyro_y, a = msg.angular_velocity.y, msg.linear_acceleration
-        if uses_estimator(self.cfg["pitch_source"], raw):
-            if not self._admit("imu", stamp, (gyro_y, a.x, a.z)):
+    def _on_imu_bytes(self, data: bytes) -> None:
+        imu = imu_fields(data)
+        if imu is None:
+            self.inputs.dropped("imu", "not a sensor_msgs/Imu")
+        else:
+            self._on_imu(imu)
+
+    def _on_odom(self, odom: OdomTwist) -> None:
+        stamp = stamp_seconds(odom.stamp)
+        if self._admit("odom", stamp, (odom.velocity, odom.yaw_rate)):
+            self._velocity = odom.velocity
+            self._stamps["odom"] = odom.stamp
+            self._act(*self.sync.offer_odom(stamp, odom.velocity, odom.yaw_rate))
+
+    def _on_imu(self, imu: ImuFields) -> None:
+        stamp = stamp_seconds(imu.stamp)
+        gyro_y = imu.angular_velocity[1]
+        accel_x, accel_z = imu.linear_acceleration[0], imu.linear_acceleration[2]
+        if uses_estimator(self.cfg["pitch_source"], imu.no_orientation):
+            if not self._admit("imu", stamp, (gyro_y, accel_x, accel_z)):
                 return
-            pitch, pitch_rate = self.estimator.update(stamp, gyro_y, a.x, a.z, self._velocity)
+            pitch, pitch_rate = self.estimator.update(stamp, gyro_y, accel_x, accel_z, self._velocity)
             velocity = self.estimator.velocity
             self._estimated = True
         else:
-            if raw:
+            if imu.no_orientation:
                 self.get_logger().error("imu reports no orientation (orientation_covariance[0] = -1) and"
                                         " pitch_source is 'orientation': reading dropped; set pitch_source"
                                         " to auto or estimator", throttle_duration_sec=5.0)
                 return
-            o = msg.orientation
-            _, pitch, _ = rpy_from_quaternion(o.x, o.y, o.z, o.w)
+            _, pitch, _ = rpy_from_quaternion(*imu.orientation)
             pitch_rate = gyro_y
-            if not self._admit("imu", stamp, (pitch, pitch_rate, o.x, o.y, o.z, o.w)):
+            if not self._admit("imu", stamp, (pitch, pitch_rate, *imu.orientation)):
                 return
             velocity = None
             self._estimated = False
-        self._stamps["imu"] = msg.header.stamp
+        self._stamps["imu"] = imu.stamp
         self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate, velocity))
 
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:

@@ -21,21 +21,14 @@ from geometry_msgs.msg import Twist, TwistStamped, Vector3
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
-from rclpy.serialization import deserialize_message
 from visualization_msgs.msg import MarkerArray
 
+from twbr_common.cdr import deserialize_or_none, header_stamp_seconds
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.markers import arrow
-from twbr_common.ros_io import (
-    COMMAND_QOS,
-    SENSOR_PUB_QOS,
-    SENSOR_SUB_QOS,
-    WORLD_QOS,
-    header_stamp_seconds,
-    stamp_seconds,
-)
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
@@ -135,7 +128,11 @@ class PlannerNode(Node):
         stamp = header_stamp_seconds(data)
         if stamp is not None and not self._answers(stamp):
             return
-        self._on_odom(deserialize_message(data, Odometry))
+        msg = deserialize_or_none(data, Odometry)
+        if msg is None:
+            self.inputs.dropped("odom", "not a nav_msgs/Odometry")
+            return
+        self._on_odom(msg)
 
     def _answers(self, stamp: float) -> bool:
         return (self._last_plan is not None and stamp == self._last_plan[0]) or self._due.would_be_due(stamp)

@@ -1,0 +1,170 @@
+"""The few fields a node acts on, read in place from a serialized message (plain CDR, XCDR1).
+
+Deserializing a nav_msgs/Odometry into Python builds ten message objects and two 36-element covariance
+arrays: 34 µs, against 3 µs to read its stamp and twist from the bytes (sensor_msgs/Imu: 16 µs). At 200 Hz
+on every state of a lockstep graph that sits between a state and its command. Anything these readers do
+not recognise (another encapsulation such as XCDR2, bytes too short for their own length fields) they
+deserialize as before, so a message is never misread, only read the slow way; bytes that are no such
+message at all give None.
+
+Offsets follow classic CDR: the 4-byte encapsulation header (0x0000 big, 0x0001 little endian), then the
+fields, each aligned to its own size counted from the end of that header; a string is a uint32 length
+(its terminating NUL included) and its bytes.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import NamedTuple
+
+from builtin_interfaces.msg import Time
+from nav_msgs.msg import Odometry
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import Imu
+
+_HEADER = 4  # encapsulation id and options
+_STRUCTS: dict[tuple[str, str], struct.Struct] = {}
+
+
+def _unpack(order: str, fmt: str, data: bytes, offset: int) -> tuple:
+    s = _STRUCTS.get((order, fmt))
+    if s is None:
+        s = _STRUCTS[(order, fmt)] = struct.Struct(order + fmt)
+    return s.unpack_from(data, offset)
+
+
+def _byte_order(data: bytes) -> str | None:
+    if len(data) < _HEADER + 8 or data[0] != 0 or data[1] not in (0, 1):
+        return None
+    return "<" if data[1] == 1 else ">"
+
+
+def _align(offset: int, size: int) -> int:
+    """`offset` (from the start of the data) moved up to a multiple of `size` counted past the header."""
+    return _HEADER + (offset - _HEADER + size - 1) // size * size
+
+
+def _past_string(data: bytes, order: str, offset: int) -> int | None:
+    """The offset just past the string whose length field is at (or aligned up from) `offset`."""
+    offset = _align(offset, 4)
+    if offset + 4 > len(data):
+        return None
+    (length,) = _unpack(order, "I", data, offset)
+    end = offset + 4 + length
+    return end if end <= len(data) else None
+
+
+def header_stamp_seconds(data: bytes) -> float | None:
+    """The header stamp [s] of a serialized message whose first field is a std_msgs/Header; None unless
+    plain CDR."""
+    order = _byte_order(data)
+    if order is None:
+        return None
+    sec, nanosec = _unpack(order, "iI", data, _HEADER)
+    return sec + nanosec * 1e-9
+
+
+def _header(data: bytes) -> tuple[str, Time, int] | None:
+    """Byte order, stamp, and the offset past frame_id."""
+    order = _byte_order(data)
+    if order is None:
+        return None
+    sec, nanosec = _unpack(order, "iI", data, _HEADER)
+    end = _past_string(data, order, _HEADER + 8)
+    if end is None:
+        return None
+    return order, Time(sec=sec, nanosec=nanosec), end
+
+
+class OdomTwist(NamedTuple):
+    """What the controller takes from odom: the stamp, forward speed [m/s] and yaw rate [rad/s]."""
+
+    stamp: Time
+    velocity: float
+    yaw_rate: float
+
+
+# Odometry after child_frame_id: pose.pose (position 3, orientation 4 doubles), pose.covariance (36),
+# then twist.twist.linear (3) and angular (3).
+_ODOM_TWIST_OFFSET = 8 * (3 + 4 + 36)
+
+
+def odom_twist(data: bytes) -> OdomTwist | None:
+    """From a serialized nav_msgs/Odometry; None if the bytes are not one."""
+    fields = _plain_odom_twist(data)
+    if fields is None:
+        msg = deserialize_or_none(data, Odometry)
+        fields = None if msg is None else odom_twist_of(msg)
+    return fields
+
+
+def _plain_odom_twist(data: bytes) -> OdomTwist | None:
+    head = _header(data)
+    if head is None:
+        return None
+    order, stamp, offset = head
+    offset = _past_string(data, order, offset)  # child_frame_id
+    if offset is None:
+        return None
+    twist = _align(offset, 8) + _ODOM_TWIST_OFFSET
+    if twist + 8 * (6 + 36) > len(data):  # the whole message, to its twist's covariance
+        return None
+    vx, _vy, _vz, _wx, _wy, wz = _unpack(order, "6d", data, twist)
+    return OdomTwist(stamp, vx, wz)
+
+
+def odom_twist_of(msg: Odometry) -> OdomTwist:
+    return OdomTwist(msg.header.stamp, msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+
+class ImuFields(NamedTuple):
+    """An imu message's stamp, orientation (x, y, z, w), whether it has none (REP 145:
+    orientation_covariance[0] == -1), angular velocity [rad/s] and linear acceleration [m/s^2]."""
+
+    stamp: Time
+    orientation: tuple[float, float, float, float]
+    no_orientation: bool
+    angular_velocity: tuple[float, float, float]
+    linear_acceleration: tuple[float, float, float]
+
+
+# Imu after the header: orientation (4 doubles), its covariance (9), angular_velocity (3), its covariance
+# (9), linear_acceleration (3), its covariance (9).
+_IMU_DOUBLES = 4 + 9 + 3 + 9 + 3
+_IMU_END = 8 * (_IMU_DOUBLES + 9)
+
+
+def imu_fields(data: bytes) -> ImuFields | None:
+    """From a serialized sensor_msgs/Imu; None if the bytes are not one."""
+    fields = _plain_imu_fields(data)
+    if fields is None:
+        msg = deserialize_or_none(data, Imu)
+        fields = None if msg is None else imu_fields_of(msg)
+    return fields
+
+
+def _plain_imu_fields(data: bytes) -> ImuFields | None:
+    head = _header(data)
+    if head is None:
+        return None
+    order, stamp, offset = head
+    start = _align(offset, 8)
+    if start + _IMU_END > len(data):  # the whole message, as the deserializer would insist
+        return None
+    v = _unpack(order, f"{_IMU_DOUBLES}d", data, start)
+    return ImuFields(stamp, v[0:4], v[4] == -1.0, v[13:16], v[25:28])
+
+
+def imu_fields_of(msg: Imu) -> ImuFields:
+    o, w, a = msg.orientation, msg.angular_velocity, msg.linear_acceleration
+    return ImuFields(msg.header.stamp, (o.x, o.y, o.z, o.w), msg.orientation_covariance[0] == -1.0,
+                     (w.x, w.y, w.z), (a.x, a.y, a.z))
+
+
+def deserialize_or_none(data: bytes, message_type: type):
+    """The message, or None when the bytes are not one (a raw subscription's data is not checked by the
+    middleware: a malformed sample from a neighbour must not raise in a callback)."""
+    try:
+        return deserialize_message(data, message_type)
+    except RuntimeError:  # rclpy's RMWError: "failed to deserialize ROS message"
+        return None
