@@ -41,10 +41,10 @@ class MujocoDriver(SimNode):
     def new_simulator(self, robot: dict, cfg: dict, scenario: Scenario | None, seed: int) -> MujocoSimulator:
         return MujocoSimulator(robot, cfg, scenario, seed)
 
-    def telemetry_messages(self) -> list[tuple]:
+    def state_telemetry(self) -> list[tuple]:
         if self.recording is not None:
             self.recording.capture()  # the state the telemetry describes, before the next step
-        return super().telemetry_messages()
+        return super().state_telemetry()
 
     def run(self) -> None:
         try:

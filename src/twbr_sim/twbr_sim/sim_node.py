@@ -236,9 +236,14 @@ class SimNode(Node):
         publish_each(self.telemetry_messages())
 
     def telemetry_messages(self) -> list[tuple]:
-        """(publisher, message) of everything else about the state just answered: joints, tf, status,
-        markers. Built before the step (they describe this state and its command) and sent apart, so that
-        lockstep can send them after the next state, while the controller computes."""
+        """(publisher, message) of everything else about the state just answered: joints, tf, markers,
+        status."""
+        return self.state_telemetry() + self.answer_telemetry()
+
+    def state_telemetry(self) -> list[tuple]:
+        """Joints, tf and markers of the current state. They do not depend on its command, so lockstep
+        builds them while the command is awaited, not between the command and the next state (the
+        critical path); they are sent after the next state, like the rest."""
         sim = self.sim
         stamp = to_stamp(self.exchange.pending_ns)
         joints = JointState()
@@ -250,8 +255,7 @@ class SimNode(Node):
         joints.effort = list(sim.wheel_torques())
         out: list[tuple] = [(self.pub_joints, joints)]
 
-        flags = (sim.fallen, sim.torque_saturated, sim.command_stale, sim.traction.lifted, sim.traction.slipping)
-        due = self.publications.with_telemetry(sim.time, flags != self._status_flags, self.hosting_world)
+        due = self.publications.with_state_telemetry(sim.time, self.hosting_world)
         if due.tf:
             tf = TransformStamped()
             tf.header.stamp = stamp
@@ -262,16 +266,23 @@ class SimNode(Node):
             q = pose.orientation
             tf.transform.rotation = Quaternion(x=q.x, y=q.y, z=q.z, w=q.w)  # odom's is refilled next state
             out.append((self.pub_tf, TFMessage(transforms=[tf])))
-        if self._status_flags is not None and flags[2] != self._status_flags[2]:
-            self._report_command_stale(sim.command_stale)
-        if due.status:
-            self._status_flags = flags
-            out.append((self.pub_status, self.status_message(stamp)))
         if due.markers:
             world = sim.world
             out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,
                                                         stamp, self._frame_odom)))
         return out
+
+    def answer_telemetry(self) -> list[tuple]:
+        """sim_status, when due or a flag changed: its flags include the command's (torque saturated,
+        command stale)."""
+        sim = self.sim
+        flags = (sim.fallen, sim.torque_saturated, sim.command_stale, sim.traction.lifted, sim.traction.slipping)
+        if self._status_flags is not None and flags[2] != self._status_flags[2]:
+            self._report_command_stale(sim.command_stale)
+        if not self.publications.status_due(sim.time, flags != self._status_flags):
+            return []
+        self._status_flags = flags
+        return [(self.pub_status, self.status_message(to_stamp(self.exchange.pending_ns)))]
 
     def _report_command_stale(self, stale: bool) -> None:
         if stale:
@@ -389,6 +400,7 @@ class SimNode(Node):
         exchange = self.exchange
         timeout = self.cfg["lockstep_timeout"]
         self.publish_control_state()
+        state_telemetry = self.state_telemetry()
         while self.context.ok() and not self._finished():
             deadline = time.monotonic() + timeout
             while not exchange.answered() and self.context.ok():
@@ -413,11 +425,12 @@ class SimNode(Node):
             exchange.stepping()
             # The answered state's telemetry goes out after the next state: while the controller computes
             # on it, not between the answer and the next state (the critical path of lockstep).
-            telemetry = self.telemetry_messages()
+            telemetry = state_telemetry + self.answer_telemetry()
             self._step()
             self.publish_control_state()
             publish_each(telemetry)
-        self.publish_telemetry()
+            state_telemetry = self.state_telemetry()
+        publish_each(state_telemetry + self.answer_telemetry())
 
     def _run_realtime(self) -> None:
         """Each period: the state at its tick, then the controller's answer, then telemetry and the next

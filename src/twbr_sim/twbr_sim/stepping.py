@@ -121,9 +121,8 @@ class StateTopics(NamedTuple):
     world: bool
 
 
-class TelemetryTopics(NamedTuple):
+class StateTelemetryTopics(NamedTuple):
     tf: bool
-    status: bool
     markers: bool
 
 
@@ -142,7 +141,8 @@ class Publications:
         clock = self._clock.due(t)
         return StateTopics(clock, hosting_world and self._world.due(t))
 
-    def with_telemetry(self, t: float, flags_changed: bool, hosting_world: bool) -> TelemetryTopics:
-        tf = self._tf.due(t)
-        status = self._status.due(t) or flags_changed
-        return TelemetryTopics(tf, status, hosting_world and self._markers.due(t))
+    def with_state_telemetry(self, t: float, hosting_world: bool) -> StateTelemetryTopics:
+        return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t))
+
+    def status_due(self, t: float, flags_changed: bool) -> bool:
+        return self._status.due(t) or flags_changed
