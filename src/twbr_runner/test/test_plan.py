@@ -42,3 +42,14 @@ def test_a_scenarios_pinned_parameters_reach_the_node_and_bad_ones_are_refused_b
         with pytest.raises(ConfigError) as e:
             planner_args(scenario)
         assert "scenario 'pins', field 'planner'" in str(e.value) and message in str(e.value)
+
+
+def test_the_controller_and_planner_run_compiled_unless_the_caller_says_otherwise(monkeypatch):
+    scenario = load_scenario(find_scenario("dynamic_obstacles"))
+    monkeypatch.delenv("TWBR_JIT", raising=False)
+    nodes = {n.label: n for n in plan(scenario, Path("scenario.yaml"), config_dir(), 1, Path("bag"))}
+    assert nodes["controller"].env == nodes["planner"].env == {"TWBR_JIT": "on"}
+    assert nodes["sim"].env == nodes["recorder"].env == {}  # the simulator is compiled anyway
+    monkeypatch.setenv("TWBR_JIT", "off")  # e.g. to run the graph as the robot's computer would
+    nodes = {n.label: n for n in plan(scenario, Path("scenario.yaml"), config_dir(), 1, Path("bag"))}
+    assert nodes["controller"].env == nodes["planner"].env == {}

@@ -28,6 +28,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from twbr_common.deploy import JIT_ENV
 from twbr_common.param_files import KNOWN_NODES, node_parameters
 from twbr_common.params import ConfigError, default_of
 from twbr_common.paths import config_dir
@@ -77,6 +78,20 @@ class NodeSpec:
     args: list[str] = field(default_factory=list)
     recorded: tuple[str, ...] = ()  # topics it publishes that the recorder must have matched before the sim starts
     niceness: int = 0
+    env: dict[str, str] = field(default_factory=dict)  # over the run's environment
+
+
+def compiled_cores() -> dict[str, str]:
+    """The environment of the runner's controller and planner: their cores compiled (TWBR_JIT=on), as the
+    simulator's are, unless the caller's TWBR_JIT says otherwise.
+
+    On the robot's own computer these nodes run interpreted by default (twbr_common.deploy: 75 MiB each
+    and a quarter-second start). A simulation workstation runs them compiled: the graph's real-time factor
+    rises by a few per cent (benchmarks/README.md, issue 19 part 7); from numba's cache they start in
+    0.7 s, and the first run after a source change compiles them (~3 and ~8 s) before the runner starts
+    the simulator. Interpreted or compiled, the kernels compute the same numbers (twbr_batch's
+    test_interpreted)."""
+    return {} if JIT_ENV in os.environ else {JIT_ENV: "on"}
 
 
 @dataclass
@@ -140,7 +155,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         NodeSpec("recorder", "twbr_runner", "recorder", [], ["-o", str(bag_dir), "-a", *recorder_topics],
                  niceness=10),
         NodeSpec("controller", "twbr_control", "controller_node", params_files(config, "controller.yaml"),
-                 recorded=("/wheel_torque_cmd", "/controller_state")),
+                 recorded=("/wheel_torque_cmd", "/controller_state"), env=compiled_cores()),
     ]
     if view_port is not None:
         # Not in the lockstep (best-effort, depth 1) and niced: it draws what it can and never holds the run.
@@ -153,7 +168,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         overrides = [a for name, value in pinned.items() for a in ("-p", f"{name}:={ros_value(value)}")]
         nodes.append(NodeSpec("planner", "twbr_planner", "planner_node",
                               [*params_files(config, "planner.yaml"), *overrides],
-                              recorded=("/cmd_vel", "/planner_state")))
+                              recorded=("/cmd_vel", "/planner_state"), env=compiled_cores()))
     elif scenario.commands:
         nodes.append(NodeSpec("command_player", "twbr_sim", "command_player",
                               [*params_files(config, "command_player.yaml"), "-p", f"scenario:={scenario_path}"],
@@ -329,7 +344,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
     (run_dir / "command.txt").write_text(" ".join(sys.argv) + "\n" + "\n".join(
-        f"{n.label}: ros2 run {n.package} {n.executable} {' '.join(n.args)} --ros-args {' '.join(n.ros_args)}"
+        f"{n.label}: {''.join(f'{k}={v} ' for k, v in n.env.items())}ros2 run {n.package} {n.executable}"
+        f" {' '.join(n.args)} --ros-args {' '.join(n.ros_args)}"
         for n in nodes) + "\n")
 
     _say(opts, f"run_scenario: {scenario.name} (seed {seed}, {scenario.duration:g} s sim time) on ROS_DOMAIN_ID"
@@ -346,8 +362,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                 # Discovery between two processes can take seconds: start the clock only once the
                 # recorder hears every other source, so the bag has the run from t = 0.
                 progress.wait_for_recorder(procs["recorder"], [t for s in nodes for t in s.recorded], 30.0)
-            procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, env, log_dir, spec.label,
-                                           spec.args, spec.niceness)
+            procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, {**env, **spec.env},
+                                           log_dir, spec.label, spec.args, spec.niceness)
             if spec.label == "recorder":
                 progress.wait_for_recorder(procs["recorder"], [], 20.0)
             if spec.label == "viewer":
