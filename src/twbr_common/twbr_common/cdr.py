@@ -15,13 +15,15 @@ fields, each aligned to its own size counted from the end of that header; a stri
 from __future__ import annotations
 
 import struct
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple, TypeVar
 
 from builtin_interfaces.msg import Time
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
 
+T = TypeVar("T")
 _HEADER = 4  # encapsulation id and options
 _STRUCTS: dict[tuple[str, str], struct.Struct] = {}
 
@@ -91,11 +93,7 @@ _ODOM_TWIST_OFFSET = 8 * (3 + 4 + 36)
 
 def odom_twist(data: bytes) -> OdomTwist | None:
     """From a serialized nav_msgs/Odometry; None if the bytes are not one."""
-    fields = _plain_odom_twist(data)
-    if fields is None:
-        msg = deserialize_or_none(data, Odometry)
-        fields = None if msg is None else odom_twist_of(msg)
-    return fields
+    return _read(data, _plain_odom_twist, Odometry, odom_twist_of)
 
 
 def _plain_odom_twist(data: bytes) -> OdomTwist | None:
@@ -136,11 +134,7 @@ _IMU_END = 8 * (_IMU_DOUBLES + 9)
 
 def imu_fields(data: bytes) -> ImuFields | None:
     """From a serialized sensor_msgs/Imu; None if the bytes are not one."""
-    fields = _plain_imu_fields(data)
-    if fields is None:
-        msg = deserialize_or_none(data, Imu)
-        fields = None if msg is None else imu_fields_of(msg)
-    return fields
+    return _read(data, _plain_imu_fields, Imu, imu_fields_of)
 
 
 def _plain_imu_fields(data: bytes) -> ImuFields | None:
@@ -159,6 +153,15 @@ def imu_fields_of(msg: Imu) -> ImuFields:
     o, w, a = msg.orientation, msg.angular_velocity, msg.linear_acceleration
     return ImuFields(msg.header.stamp, (o.x, o.y, o.z, o.w), msg.orientation_covariance[0] == -1.0,
                      (w.x, w.y, w.z), (a.x, a.y, a.z))
+
+
+def _read(data: bytes, plain: Callable[[bytes], T | None], message_type: type, of: Callable[[Any], T]) -> T | None:
+    """The fields from the bytes in place, or else from the deserialized message."""
+    fields = plain(data)
+    if fields is None:
+        msg = deserialize_or_none(data, message_type)
+        fields = None if msg is None else of(msg)
+    return fields
 
 
 def deserialize_or_none(data: bytes, message_type: type):
