@@ -1,5 +1,6 @@
 """Bags written with rosbags read back with the mcap libraries, our own types included."""
 
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -93,3 +94,22 @@ def test_a_bag_cut_short_by_a_killed_recorder_is_recovered_whole_up_to_the_cut(t
     last = msgs[-1][1]
     assert last.header.stamp.sec == len(msgs) - 1 and last.obstacles[99].position.y == 99.0
     assert (tmp_path / "bag" / (mcap.name + ".cut")).exists()  # the original is kept
+
+
+def test_a_message_that_does_not_decode_is_left_out_and_counted_not_fatal(tmp_path):
+    store = typestore_with(["twbr_msgs/msg/WheelTorques"], _share)
+    wt = store.types["twbr_msgs/msg/WheelTorques"]
+    writer = BagWriter(tmp_path / "bag", store)
+    writer.add_topic("/wheel_torque_cmd", "twbr_msgs/msg/WheelTorques")
+    header = store.types["std_msgs/msg/Header"](stamp=store.types["builtin_interfaces/msg/Time"](sec=1, nanosec=0),
+                                                frame_id="base_link")
+    good = bytes(store.serialize_cdr(wt(header=header, left=0.5, right=-0.5), "twbr_msgs/msg/WheelTorques"))
+    writer.write("/wheel_torque_cmd", 1_000, good)
+    writer.write("/wheel_torque_cmd", 1_001, good[:9])  # truncated, as a neighbour might send it
+    writer.write("/wheel_torque_cmd", 1_002, good[:12] + b"\xff\xff\xff\x7f" + good[16:])  # frame_id past the end
+    writer.write("/wheel_torque_cmd", 1_003, good)
+    writer.close()
+    skipped = Counter()
+    msgs = read_messages(tmp_path / "bag", undecodable=skipped)["/wheel_torque_cmd"]
+    assert [t for t, _ in msgs] == [1_000, 1_003] and msgs[1][1].left == 0.5
+    assert skipped == {"/wheel_torque_cmd": 2}

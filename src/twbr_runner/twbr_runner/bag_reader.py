@@ -6,7 +6,8 @@ and proves the bag is self-describing; metadata.yaml is checked the way `ros2 ba
 
 from __future__ import annotations
 
-from collections import defaultdict
+import struct
+from collections import Counter, defaultdict
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -38,14 +39,28 @@ def mcap_files(bag_dir: Path) -> list[Path]:
     return [Path(bag_dir) / rel for rel in bag_info(bag_dir)["relative_file_paths"]]
 
 
-def read_messages(bag_dir: Path, topics: Iterable[str] | None = None) -> dict[str, list[tuple[int, Any]]]:
-    """{topic: [(receive time ns, decoded message), ...]} in receive order."""
+def read_messages(bag_dir: Path, topics: Iterable[str] | None = None,
+                  undecodable: Counter | None = None) -> dict[str, list[tuple[int, Any]]]:
+    """{topic: [(receive time ns, decoded message), ...]} in receive order.
+
+    A recorder keeps the bytes it received, as they came: a message that does not decode as its topic's
+    type (malformed bytes from a neighbour on the network) is left out and counted per topic in
+    `undecodable`, instead of making the whole bag unreadable."""
     out: dict[str, list[tuple[int, Any]]] = defaultdict(list)
     wanted = None if topics is None else list(topics)
+    factory = DecoderFactory()
     for path in mcap_files(bag_dir):
         with path.open("rb") as f:
-            reader = make_reader(f, decoder_factories=[DecoderFactory()])
-            for _schema, channel, message, decoded in reader.iter_decoded_messages(topics=wanted,
-                                                                                   log_time_order=True):
+            decoders: dict[int, Any] = {}
+            for schema, channel, message in make_reader(f).iter_messages(topics=wanted, log_time_order=True):
+                decode = decoders.get(channel.id)
+                if decode is None:
+                    decode = decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
+                try:
+                    decoded = decode(message.data)
+                except (ValueError, IndexError, KeyError, EOFError, UnicodeDecodeError, struct.error):
+                    if undecodable is not None:
+                        undecodable[channel.topic] += 1
+                    continue
                 out[channel.topic].append((message.log_time, decoded))
     return dict(out)

@@ -21,6 +21,7 @@ import os
 import signal
 import sys
 import time
+from collections import Counter
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -422,7 +423,11 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
     try:
         info = bag_info(bag_dir)
-        series = series_from_messages(read_messages(bag_dir, MEASURED_TOPICS))
+        undecodable: Counter = Counter()
+        series = series_from_messages(read_messages(bag_dir, MEASURED_TOPICS, undecodable))
+        if undecodable:  # the recorder keeps what arrived: a neighbour's malformed bytes are not measured
+            print(f"run_scenario: left out of the metrics, messages that do not decode as their topic's type:"
+                  f" {dict(undecodable)}", file=sys.stderr, flush=True)
         metrics = compute_metrics(series, scenario.name, seed, wall if wall is not None else total_wall,
                                   step_responses=scenario.target is None)
     except Exception as e:  # whatever the recording lacks: report it, keep the bag
