@@ -113,3 +113,21 @@ def test_a_message_that_does_not_decode_is_left_out_and_counted_not_fatal(tmp_pa
     msgs = read_messages(tmp_path / "bag", undecodable=skipped)["/wheel_torque_cmd"]
     assert [t for t, _ in msgs] == [1_000, 1_003] and msgs[1][1].left == 0.5
     assert skipped == {"/wheel_torque_cmd": 2}
+
+
+def test_a_channel_without_a_ros2_decoder_is_refused_by_name(tmp_path):
+    store = typestore_with(["twbr_msgs/msg/WheelTorques"], _share)
+    writer = BagWriter(tmp_path / "bag", store)
+    writer.add_topic("/wheel_torque_cmd", "twbr_msgs/msg/WheelTorques")
+    writer.close()
+    bag = tmp_path / "bag"
+    mcap_path = bag / bag_info(bag)["relative_file_paths"][0]
+    from mcap.writer import Writer  # a channel in another encoding, as a foreign tool might add
+    with mcap_path.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        channel = w.register_channel("/raw", "json", w.register_schema("x", "jsonschema", b"{}"))
+        w.add_message(channel, log_time=1, data=b"{}", publish_time=1)
+        w.finish()
+    with pytest.raises(BagError, match="no decoder for /raw's message encoding 'json'"):
+        read_messages(bag)

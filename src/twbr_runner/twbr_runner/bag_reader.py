@@ -55,7 +55,11 @@ def read_messages(bag_dir: Path, topics: Iterable[str] | None = None,
             for schema, channel, message in make_reader(f).iter_messages(topics=wanted, log_time_order=True):
                 decode = decoders.get(channel.id)
                 if decode is None:
-                    decode = decoders[channel.id] = factory.decoder_for(channel.message_encoding, schema)
+                    decode = factory.decoder_for(channel.message_encoding, schema)
+                    if decode is None:  # what mcap's own decoding loop refuses as well
+                        raise BagError(f"{path}: no decoder for {channel.topic}'s message encoding"
+                                       f" {channel.message_encoding!r} (schema {schema.name if schema else None})")
+                    decoders[channel.id] = decode
                 try:
                     decoded = decode(message.data)
                 except (ValueError, IndexError, KeyError, EOFError, UnicodeDecodeError, struct.error):
