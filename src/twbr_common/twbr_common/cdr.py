@@ -56,22 +56,27 @@ def _past_string(data: bytes, order: str, offset: int) -> int | None:
     return end if end <= len(data) else None
 
 
-def header_stamp_seconds(data: bytes) -> float | None:
-    """The header stamp [s] of a serialized message whose first field is a std_msgs/Header; None unless
-    plain CDR."""
+def _stamp(data: bytes) -> tuple[str, int, int] | None:
+    """Byte order, and the sec and nanosec of the std_msgs/Header the message starts with."""
     order = _byte_order(data)
     if order is None:
         return None
-    sec, nanosec = _unpack(order, "iI", data, _HEADER)
-    return sec + nanosec * 1e-9
+    return order, *_unpack(order, "iI", data, _HEADER)
+
+
+def header_stamp_seconds(data: bytes) -> float | None:
+    """The header stamp [s] of a serialized message whose first field is a std_msgs/Header; None unless
+    plain CDR."""
+    stamp = _stamp(data)
+    return None if stamp is None else stamp[1] + stamp[2] * 1e-9
 
 
 def _header(data: bytes) -> tuple[str, Time, int] | None:
     """Byte order, stamp, and the offset past frame_id."""
-    order = _byte_order(data)
-    if order is None:
+    stamp = _stamp(data)
+    if stamp is None:
         return None
-    sec, nanosec = _unpack(order, "iI", data, _HEADER)
+    order, sec, nanosec = stamp
     end = _past_string(data, order, _HEADER + 8)
     if end is None:
         return None

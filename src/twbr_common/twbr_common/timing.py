@@ -46,12 +46,15 @@ class Decimator:
         self._next = float("-inf")
         self._last: float | None = None
 
+    def _jumped_back(self, t: float) -> bool:
+        return self._last is not None and t < self._last
+
     def would_be_due(self, t: float) -> bool:
         """What due(t) would answer, without taking the instant."""
-        return (self._last is not None and t < self._last) or _is_due(t, self._next)
+        return self._jumped_back(t) or _is_due(t, self._next)
 
     def due(self, t: float) -> bool:
-        if self._last is not None and t < self._last:
+        if self._jumped_back(t):
             self.restart()
         if not _is_due(t, self._next):
             return False
