@@ -96,6 +96,7 @@ from twbr_sim.world import (
     N_TALLY,
     SEG_HEADING,
     SEG_NEXT_DRAW,
+    SEG_T,
     SEG_X,
     SEG_Y,
     SEG_YAW_RATE,
@@ -267,37 +268,41 @@ def reads_derivative(run):
 
 
 @inline_kernel
-def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity, radii, profile, result, trace,
-                 imu_c, imu_m, generator, encoder_c, encoder_m, estimator_q, memories, j):
+def robot_sample(params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
+                 traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits, memories, j):
     """One sample of robot j's run, as run_closed_loop's: sense the state, assess the world, plan, control.
-    True when the run ends here; else the torques to apply until the next sample are in loop[j]."""
+    True when the run ends here; else the torques to apply until the next sample are in loop[j].
+
+    The batch's arrays are indexed by robot (states[j, S_TH]) rather than through row views: a view takes
+    and drops a reference count on its array, an atomic operation the two threads' samples contend for;
+    views are made only for the calls that take a row (the planner and the world at their rates, the
+    sensors' models)."""
     loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
         derivative, reading, odometry, loads, estimator_m = memories
-    lp = loop[j]
     h = run[U_H]
-    step_count = result[Z_PHYSICS_STEPS]
+    step_count = results[j, Z_PHYSICS_STEPS]
     k = int(step_count) // int(run[U_STEPS_PER_CONTROL])  # the samples before this one
     t = step_count * h
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
     estimate = run[U_ESTIMATE] != 0.0
     friction = run[U_FRICTION]
-    x = state[S_XC]  # the truth, for the world's assessment
-    y = state[S_YC]
-    pitch = state[S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
-    pitch_rate = state[S_THD]
+    x = states[j, S_XC]  # the truth, for the world's assessment
+    y = states[j, S_YC]
+    pitch = states[j, S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
+    pitch_rate = states[j, S_THD]
     odom_x = x  # what odom says, for the planner and the velocity loop
     odom_y = y
-    odom_yaw = state[S_PSI]
-    odom_velocity = state[S_XD]
-    yaw_rate = state[S_PSID]
-    derived = lp[L_DERIVED] != 0.0  # by the physics, in lanes
-    lp[L_DERIVED] = 0.0
-    if reads_derivative(run) and not derived:
-        derivatives(p, state, lp[L_LEFT], lp[L_RIGHT], derivative[j])  # under the command applied now
+    odom_yaw = states[j, S_PSI]
+    odom_velocity = states[j, S_XD]
+    yaw_rate = states[j, S_PSID]
+    derived = loop[j, L_DERIVED] != 0.0  # by the physics, in lanes
+    loop[j, L_DERIVED] = 0.0
+    if reads_derivative(run) and not derived:  # under the command applied now
+        derivatives(params[j], states[j], loop[j, L_LEFT], loop[j, L_RIGHT], derivative[j])
     if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
-        imu_sample(p, imu_c, imu_m, generator, state, derivative[j], reading[j])
-        encoder_sample(p, encoder_c, encoder_m, state, odometry[j])
+        imu_sample(params[j], imu_c, imu_m[j], generators[j], states[j], derivative[j], reading[j])
+        encoder_sample(params[j], encoder_c, encoder_m[j], states[j], odometry[j])
         odom_x = odometry[j, J_X]
         odom_y = odometry[j, J_Y]
         odom_yaw = odometry[j, J_YAW]
@@ -312,125 +317,126 @@ def robot_sample(p, state, c, a, run, segment, obstacle_start, obstacle_velocity
             pitch_rate = estimator_m[j, E_PITCH_RATE]
     if friction > 0.0:
         if not derived:
-            wheel_loads(p, state, derivative[j], loads[j])
+            wheel_loads(params[j], states[j], derivative[j], loads[j])
         now_lifted, now_slipping = traction_flags(loads[j], friction)
-        result[Z_LIFT_EVENTS] += 1 if now_lifted and lp[L_LIFTED] == 0.0 else 0
-        result[Z_SLIP_EVENTS] += 1 if now_slipping and lp[L_SLIPPING] == 0.0 else 0
-        lp[L_LIFTED_SAMPLES] += 1 if now_lifted else 0
-        lp[L_SLIPPING_SAMPLES] += 1 if now_slipping else 0
-        lp[L_LIFTED] = 1.0 if now_lifted else 0.0
-        lp[L_SLIPPING] = 1.0 if now_slipping else 0.0
-    result[Z_PITCH_ERROR_SQUARES] += (pitch - state[S_TH]) ** 2
+        results[j, Z_LIFT_EVENTS] += 1 if now_lifted and loop[j, L_LIFTED] == 0.0 else 0
+        results[j, Z_SLIP_EVENTS] += 1 if now_slipping and loop[j, L_SLIPPING] == 0.0 else 0
+        loop[j, L_LIFTED_SAMPLES] += 1 if now_lifted else 0
+        loop[j, L_SLIPPING_SAMPLES] += 1 if now_slipping else 0
+        loop[j, L_LIFTED] = 1.0 if now_lifted else 0.0
+        loop[j, L_SLIPPING] = 1.0 if now_slipping else 0.0
+    results[j, Z_PITCH_ERROR_SQUARES] += (pitch - states[j, S_TH]) ** 2
     # the velocity loop's speed: odom's, or the estimator's fused one
     velocity = estimator_m[j, E_VELOCITY_ESTIMATE] if estimate else odom_velocity
-    if is_due(t, lp[L_WORLD_NEXT]):  # the world's assessment, at the world rate
-        lp[L_WORLD_NEXT] = next_due(t, lp[L_WORLD_NEXT], run[U_WORLD_PERIOD])
-        obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions[j])
+    if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
+        loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
+        obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
         collisions_before = tally[j, W_COLLISIONS]
-        clearance, hit = assess_obstacles(positions[j], radii, p[P_ROBOT_RADIUS], x, y, tally[j])
-        result[Z_MIN_CLEARANCE] = min(result[Z_MIN_CLEARANCE], clearance)
-        if result[Z_HIT_OBSTACLE] < 0 and tally[j, W_COLLISIONS] > collisions_before:
-            result[Z_HIT_OBSTACLE] = hit
+        clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
+        results[j, Z_MIN_CLEARANCE] = min(results[j, Z_MIN_CLEARANCE], clearance)
+        if results[j, Z_HIT_OBSTACLE] < 0 and tally[j, W_COLLISIONS] > collisions_before:
+            results[j, Z_HIT_OBSTACLE] = hit
             if detected[j, hit]:
-                result[Z_DETECTED:Z_DETECTED + 6] = detected_at[j, hit]
+                results[j, Z_DETECTED:Z_DETECTED + 6] = detected_at[j, hit]
             else:  # it came into range and hit between two plans: the robot now
-                result[Z_DETECTED:Z_DETECTED + 6] = (t, x, y, state[S_PSI], state[S_XD], state[S_PSID])
-        if has_target and math.isnan(result[Z_REACHED_AT]):
-            tx, ty, _heading, _vx, _vy = target_at(segment, run[U_TARGET_SPEED], t)
+                results[j, Z_DETECTED:Z_DETECTED + 6] = (t, x, y, states[j, S_PSI], states[j, S_XD],
+                                                         states[j, S_PSID])
+        if has_target and math.isnan(results[j, Z_REACHED_AT]):
+            tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
             if math.hypot(tx - x, ty - y) <= run[U_CAPTURE_RADIUS]:
-                result[Z_REACHED_AT] = t
+                results[j, Z_REACHED_AT] = t
     if has_target:
-        if is_due(t, lp[L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
-            lp[L_PLAN_NEXT] = next_due(t, lp[L_PLAN_NEXT], run[U_PLANNER_PERIOD])
-            tx, ty, _heading, tvx, tvy = target_at(segment, run[U_TARGET_SPEED], t)
-            obstacle_positions_at(obstacle_start, obstacle_velocity, t, positions[j])
+        if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
+            loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
+            tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
+            obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
             plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
-                      tvy, positions[j], obstacle_velocity, radii, distances[j])
-            lp[L_NEXT_V] = plan_out[j, Q_V]
-            lp[L_NEXT_W] = plan_out[j, Q_OMEGA]
-            lp[L_NEW_PLAN] = 1.0
+                      tvy, positions[j], obstacle_velocity[j], radii, distances[j])
+            loop[j, L_NEXT_V] = plan_out[j, Q_V]
+            loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
+            loop[j, L_NEW_PLAN] = 1.0
             stuck = plan_out[j, Q_MODE] == STUCK
-            result[Z_STUCK_AT_END] = 1.0 if stuck else 0.0
+            results[j, Z_STUCK_AT_END] = 1.0 if stuck else 0.0
             if stuck:
-                result[Z_STUCK_STEPS] += 1
-            result[Z_FINAL_DISTANCE] = plan_out[j, Q_DISTANCE]
+                results[j, Z_STUCK_STEPS] += 1
+            results[j, Z_FINAL_DISTANCE] = plan_out[j, Q_DISTANCE]
             for o in range(radii.shape[0]):
                 inside = distances[j, o] <= a[A_RHO_O]
                 if inside and not detected[j, o]:
                     detected_at[j, o, 0] = t
                     detected_at[j, o, 1] = x
                     detected_at[j, o, 2] = y
-                    detected_at[j, o, 3] = state[S_PSI]
-                    detected_at[j, o, 4] = state[S_XD]
-                    detected_at[j, o, 5] = state[S_PSID]
+                    detected_at[j, o, 3] = states[j, S_PSI]
+                    detected_at[j, o, 4] = states[j, S_XD]
+                    detected_at[j, o, 5] = states[j, S_PSID]
                 detected[j, o] = inside
     else:
         v_ref, w_ref = command_profile_at(profile[0], profile[1], profile[2], t)
-        lp[L_V_REF] = v_ref
-        lp[L_W_REF] = w_ref
-        lp[L_COMMAND_STAMP] = t  # a command profile: a command at every sample
+        loop[j, L_V_REF] = v_ref
+        loop[j, L_W_REF] = w_ref
+        loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
     hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
-    out = control_out[j]
-    cascade_compute(c, control[j], out, t, lp[L_V_REF], lp[L_W_REF], velocity, yaw_rate, pitch, pitch_rate,
-                    lp[L_COMMANDED] == 0.0, hold, lp[L_COMMAND_STAMP])
-    true_pitch = state[S_TH]
-    result[Z_PITCH_MIN] = min(result[Z_PITCH_MIN], true_pitch)
-    result[Z_PITCH_MAX] = max(result[Z_PITCH_MAX], true_pitch)
+    cascade_compute(c, control[j], control_out[j], t, loop[j, L_V_REF], loop[j, L_W_REF], velocity, yaw_rate, pitch,
+                    pitch_rate, loop[j, L_COMMANDED] == 0.0, hold, loop[j, L_COMMAND_STAMP])
+    true_pitch = states[j, S_TH]
+    results[j, Z_PITCH_MIN] = min(results[j, Z_PITCH_MIN], true_pitch)
+    results[j, Z_PITCH_MAX] = max(results[j, Z_PITCH_MAX], true_pitch)
     if t >= SETTLING_TIME:
-        result[Z_PITCH_SETTLED] = max(result[Z_PITCH_SETTLED], abs(true_pitch))
-    if trace.shape[0] > 0:
-        row = trace[k]
-        row[T_T] = t
-        row[T_X_C] = x
-        row[T_Y_C] = y
-        row[T_PITCH] = pitch  # what the controller used
-        row[T_VELOCITY] = velocity
-        row[T_YAW] = state[S_PSI]
-        row[T_LEFT_TORQUE] = out[O_LEFT]
-        row[T_RIGHT_TORQUE] = out[O_RIGHT]
-        row[T_VELOCITY_REF] = out[O_VELOCITY_REF]
-        row[T_YAW_RATE_REF] = out[O_YAW_RATE_REF]
-        row[T_PITCH_TRUE] = true_pitch
-        row[T_VELOCITY_TRUE] = state[S_XD]
+        results[j, Z_PITCH_SETTLED] = max(results[j, Z_PITCH_SETTLED], abs(true_pitch))
+    if traces.shape[1] > 0:  # (1, 0, N_TRACE): nothing recorded
+        traces[j, k, T_T] = t
+        traces[j, k, T_X_C] = x
+        traces[j, k, T_Y_C] = y
+        traces[j, k, T_PITCH] = pitch  # what the controller used
+        traces[j, k, T_VELOCITY] = velocity
+        traces[j, k, T_YAW] = states[j, S_PSI]
+        traces[j, k, T_LEFT_TORQUE] = control_out[j, O_LEFT]
+        traces[j, k, T_RIGHT_TORQUE] = control_out[j, O_RIGHT]
+        traces[j, k, T_VELOCITY_REF] = control_out[j, O_VELOCITY_REF]
+        traces[j, k, T_YAW_RATE_REF] = control_out[j, O_YAW_RATE_REF]
+        traces[j, k, T_PITCH_TRUE] = true_pitch
+        traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
     if has_target:  # the controller takes a cmd_vel from the first state stamped after it
-        lp[L_V_REF] = lp[L_NEXT_V]
-        lp[L_W_REF] = lp[L_NEXT_W]
-        if lp[L_NEW_PLAN] != 0.0:
-            lp[L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
-            lp[L_NEW_PLAN] = 0.0
-            lp[L_COMMANDED] = 1.0
-    result[Z_SIM_TIME] = t
-    result[Z_SAMPLES] = k + 1
-    if (k == int(run[U_N_SAMPLES]) - 1 or result[Z_FALLEN] != 0.0
-            or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(result[Z_REACHED_AT]))):
+        loop[j, L_V_REF] = loop[j, L_NEXT_V]
+        loop[j, L_W_REF] = loop[j, L_NEXT_W]
+        if loop[j, L_NEW_PLAN] != 0.0:
+            loop[j, L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
+            loop[j, L_NEW_PLAN] = 0.0
+            loop[j, L_COMMANDED] = 1.0
+    results[j, Z_SIM_TIME] = t
+    results[j, Z_SAMPLES] = k + 1
+    if (k == int(run[U_N_SAMPLES]) - 1 or results[j, Z_FALLEN] != 0.0
+            or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(results[j, Z_REACHED_AT]))):
         return True
-    torque_limit = wheel_torque_limit(p)
-    lp[L_LEFT] = min(max(out[O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
-    lp[L_RIGHT] = min(max(out[O_RIGHT], -torque_limit), torque_limit)
+    torque_limit = torque_limits[j]
+    loop[j, L_LEFT] = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
+    loop[j, L_RIGHT] = min(max(control_out[j, O_RIGHT], -torque_limit), torque_limit)
     return False
 
 
 @kernel
-def robot_moved(run, result, segment, draws, fallen):
-    """Book a robot's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
-    and move its target on."""
-    result[Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
+def robot_moved(run, results, segments, draws, i, fallen):
+    """Book robot i's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
+    and move its target on (its segment's rows only when a turn is due: a row is a view, whose reference
+    count the threads contend for)."""
+    results[i, Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
     if fallen:
-        result[Z_FALLEN] = 1.0
-    if run[U_HAS_TARGET] != 0.0 and not advance_segments(segment, draws, result[Z_PHYSICS_STEPS] * run[U_H],
-                                                         run[U_TARGET_SPEED], run[U_TURN_INTERVAL]):
+        results[i, Z_FALLEN] = 1.0
+    t = results[i, Z_PHYSICS_STEPS] * run[U_H]
+    if (run[U_HAS_TARGET] != 0.0 and t >= segments[i, SEG_T] + run[U_TURN_INTERVAL]
+            and not advance_segments(segments[i], draws[i], t, run[U_TARGET_SPEED], run[U_TURN_INTERVAL])):
         raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
 
 
 @inline_kernel
-def robot_end(run, result, memories, j):
+def robot_end(run, results, memories, j):
     """Robot j's result row from its tallies."""
     loop = memories[0]
     tally = memories[6]
     sample_time = run[U_STEPS_PER_CONTROL] * run[U_H]
-    result[Z_COLLISIONS] = tally[j, W_COLLISIONS]
-    result[Z_LIFTED_TIME] = loop[j, L_LIFTED_SAMPLES] * sample_time
-    result[Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
+    results[j, Z_COLLISIONS] = tally[j, W_COLLISIONS]
+    results[j, Z_LIFTED_TIME] = loop[j, L_LIFTED_SAMPLES] * sample_time
+    results[j, Z_SLIPPING_TIME] = loop[j, L_SLIPPING_SAMPLES] * sample_time
 
 
 @lane_kernel
@@ -458,18 +464,18 @@ SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread,
 
 @kernel
 def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
-             profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories):
+             profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
+             memories):
     """The samples (robot_sample) of running[lo:hi]; ended[q]: robot running[q]'s run ends there, its result
     then complete. One call per share of robots: a call passes its arrays with reference counting, which
     cost more than a sample's arithmetic when it was made per robot."""
     for q in range(lo, hi):
         i = running[q]
-        trace = traces[i] if traces.shape[0] > 0 else traces[0]  # (0, N_TRACE): nothing recorded
-        ended[q] = robot_sample(params[i], states[i], c, a, run, segments[i], obstacle_start[i],
-                                obstacle_velocity[i], radii, profile, results[i], trace, imu_c, imu_m[i],
-                                generators[i], encoder_c, encoder_m[i], estimator_q, memories, i)
+        ended[q] = robot_sample(params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
+                                profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m,
+                                estimator_q, torque_limits, memories, i)
         if ended[q]:
-            robot_end(run, results[i], memories, i)
+            robot_end(run, results, memories, i)
 
 
 @parallel_kernel
@@ -498,8 +504,10 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     loads = memories[14]
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
+    torque_limits = np.empty(n)
     for i in range(n):
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
+        torque_limits[i] = wheel_torque_limit(params[i])
     running = np.arange(n)  # the robots whose run goes on, in order
     ended = np.zeros(n, dtype=np.bool_)
     n_running = n
@@ -507,13 +515,14 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
             _samples(running, 0, n_running, ended, params, states, c, a, run, segments, obstacle_start,
                      obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
-                     encoder_m, estimator_q, memories)
+                     encoder_m, estimator_q, torque_limits, memories)
         else:
             share = (n_running + threads - 1) // threads
             for g in prange(threads):
                 _samples(running, min(g * share, n_running), min((g + 1) * share, n_running), ended, params,
                          states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
-                         traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, memories)
+                         traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
+                         memories)
         m = 0
         for q in range(n_running):
             if not ended[q]:
@@ -526,7 +535,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                 i = running[q]
                 fallen = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
                                          steps_per_control, one)
-                robot_moved(run, results[i], segments[i], draws[i], fallen)
+                robot_moved(run, results, segments, draws, i, fallen)
             continue
         # groups of up to `lanes` robots, and at least one per thread while there are robots for it
         group = min(lanes, (m + threads - 1) // threads)
@@ -561,7 +570,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                                               steps_per_control, one)
             for j in range(size):
                 i = running[lo + j]
-                robot_moved(run, results[i], segments[i], draws[i], fell[j])
+                robot_moved(run, results, segments, draws, i, fell[j])
 
 
 def group_size(n: int) -> int:
