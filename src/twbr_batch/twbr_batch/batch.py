@@ -76,7 +76,7 @@ from twbr_sim.dynamics import (
     initial_state,
     lane_derivatives,
     lane_group,
-    shared_substeps,
+    substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
@@ -267,153 +267,6 @@ def reads_derivative(run):
     return run[U_SENSORS] != 0.0 or run[U_FRICTION] > 0.0
 
 
-@inline_kernel
-def robot_sample(params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
-                 traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits, memories, j):
-    """One sample of robot j's run, as run_closed_loop's: sense the state, assess the world, plan, control.
-    True when the run ends here; else the torques to apply until the next sample are in loop[j].
-
-    The batch's arrays are indexed by robot (states[j, S_TH]) rather than through row views: a view takes
-    and drops a reference count on its array, an atomic operation the two threads' samples contend for;
-    views are made only for the calls that take a row (the planner and the world at their rates, the
-    sensors' models)."""
-    loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
-        derivative, reading, odometry, loads, estimator_m = memories
-    h = run[U_H]
-    step_count = results[j, Z_PHYSICS_STEPS]
-    k = int(step_count) // int(run[U_STEPS_PER_CONTROL])  # the samples before this one
-    t = step_count * h
-    has_target = run[U_HAS_TARGET] != 0.0
-    sensors = run[U_SENSORS] != 0.0
-    estimate = run[U_ESTIMATE] != 0.0
-    friction = run[U_FRICTION]
-    x = states[j, S_XC]  # the truth, for the world's assessment
-    y = states[j, S_YC]
-    pitch = states[j, S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
-    pitch_rate = states[j, S_THD]
-    odom_x = x  # what odom says, for the planner and the velocity loop
-    odom_y = y
-    odom_yaw = states[j, S_PSI]
-    odom_velocity = states[j, S_XD]
-    yaw_rate = states[j, S_PSID]
-    derived = loop[j, L_DERIVED] != 0.0  # by the physics, in lanes
-    loop[j, L_DERIVED] = 0.0
-    if reads_derivative(run) and not derived:  # under the command applied now
-        derivatives(params[j], states[j], loop[j, L_LEFT], loop[j, L_RIGHT], derivative[j])
-    if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
-        imu_sample(params[j], imu_c, imu_m[j], generators[j], states[j], derivative[j], reading[j])
-        encoder_sample(params[j], encoder_c, encoder_m[j], states[j], odometry[j])
-        odom_x = odometry[j, J_X]
-        odom_y = odometry[j, J_Y]
-        odom_yaw = odometry[j, J_YAW]
-        odom_velocity = odometry[j, J_VELOCITY]
-        yaw_rate = odometry[j, J_YAW_RATE]
-        pitch = reading[j, R_PITCH]
-        pitch_rate = reading[j, R_GYRO + 1]
-        if estimate:
-            estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, R_ACCEL],
-                             reading[j, R_ACCEL + 2], odom_velocity)
-            pitch = estimator_m[j, E_PITCH]
-            pitch_rate = estimator_m[j, E_PITCH_RATE]
-    if friction > 0.0:
-        if not derived:
-            wheel_loads(params[j], states[j], derivative[j], loads[j])
-        now_lifted, now_slipping = traction_flags(loads[j], friction)
-        results[j, Z_LIFT_EVENTS] += 1 if now_lifted and loop[j, L_LIFTED] == 0.0 else 0
-        results[j, Z_SLIP_EVENTS] += 1 if now_slipping and loop[j, L_SLIPPING] == 0.0 else 0
-        loop[j, L_LIFTED_SAMPLES] += 1 if now_lifted else 0
-        loop[j, L_SLIPPING_SAMPLES] += 1 if now_slipping else 0
-        loop[j, L_LIFTED] = 1.0 if now_lifted else 0.0
-        loop[j, L_SLIPPING] = 1.0 if now_slipping else 0.0
-    results[j, Z_PITCH_ERROR_SQUARES] += (pitch - states[j, S_TH]) ** 2
-    # the velocity loop's speed: odom's, or the estimator's fused one
-    velocity = estimator_m[j, E_VELOCITY_ESTIMATE] if estimate else odom_velocity
-    if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
-        loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
-        obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
-        collisions_before = tally[j, W_COLLISIONS]
-        clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
-        results[j, Z_MIN_CLEARANCE] = min(results[j, Z_MIN_CLEARANCE], clearance)
-        if results[j, Z_HIT_OBSTACLE] < 0 and tally[j, W_COLLISIONS] > collisions_before:
-            results[j, Z_HIT_OBSTACLE] = hit
-            if detected[j, hit]:
-                results[j, Z_DETECTED:Z_DETECTED + 6] = detected_at[j, hit]
-            else:  # it came into range and hit between two plans: the robot now
-                results[j, Z_DETECTED:Z_DETECTED + 6] = (t, x, y, states[j, S_PSI], states[j, S_XD],
-                                                         states[j, S_PSID])
-        if has_target and math.isnan(results[j, Z_REACHED_AT]):
-            tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
-            if math.hypot(tx - x, ty - y) <= run[U_CAPTURE_RADIUS]:
-                results[j, Z_REACHED_AT] = t
-    if has_target:
-        if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
-            loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
-            tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
-            obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
-            plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
-                      tvy, positions[j], obstacle_velocity[j], radii, distances[j])
-            loop[j, L_NEXT_V] = plan_out[j, Q_V]
-            loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
-            loop[j, L_NEW_PLAN] = 1.0
-            stuck = plan_out[j, Q_MODE] == STUCK
-            results[j, Z_STUCK_AT_END] = 1.0 if stuck else 0.0
-            if stuck:
-                results[j, Z_STUCK_STEPS] += 1
-            results[j, Z_FINAL_DISTANCE] = plan_out[j, Q_DISTANCE]
-            for o in range(radii.shape[0]):
-                inside = distances[j, o] <= a[A_RHO_O]
-                if inside and not detected[j, o]:
-                    detected_at[j, o, 0] = t
-                    detected_at[j, o, 1] = x
-                    detected_at[j, o, 2] = y
-                    detected_at[j, o, 3] = states[j, S_PSI]
-                    detected_at[j, o, 4] = states[j, S_XD]
-                    detected_at[j, o, 5] = states[j, S_PSID]
-                detected[j, o] = inside
-    else:
-        v_ref, w_ref = command_profile_at(profile[0], profile[1], profile[2], t)
-        loop[j, L_V_REF] = v_ref
-        loop[j, L_W_REF] = w_ref
-        loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
-    hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
-    cascade_compute(c, control[j], control_out[j], t, loop[j, L_V_REF], loop[j, L_W_REF], velocity, yaw_rate, pitch,
-                    pitch_rate, loop[j, L_COMMANDED] == 0.0, hold, loop[j, L_COMMAND_STAMP])
-    true_pitch = states[j, S_TH]
-    results[j, Z_PITCH_MIN] = min(results[j, Z_PITCH_MIN], true_pitch)
-    results[j, Z_PITCH_MAX] = max(results[j, Z_PITCH_MAX], true_pitch)
-    if t >= SETTLING_TIME:
-        results[j, Z_PITCH_SETTLED] = max(results[j, Z_PITCH_SETTLED], abs(true_pitch))
-    if traces.shape[1] > 0:  # (1, 0, N_TRACE): nothing recorded
-        traces[j, k, T_T] = t
-        traces[j, k, T_X_C] = x
-        traces[j, k, T_Y_C] = y
-        traces[j, k, T_PITCH] = pitch  # what the controller used
-        traces[j, k, T_VELOCITY] = velocity
-        traces[j, k, T_YAW] = states[j, S_PSI]
-        traces[j, k, T_LEFT_TORQUE] = control_out[j, O_LEFT]
-        traces[j, k, T_RIGHT_TORQUE] = control_out[j, O_RIGHT]
-        traces[j, k, T_VELOCITY_REF] = control_out[j, O_VELOCITY_REF]
-        traces[j, k, T_YAW_RATE_REF] = control_out[j, O_YAW_RATE_REF]
-        traces[j, k, T_PITCH_TRUE] = true_pitch
-        traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
-    if has_target:  # the controller takes a cmd_vel from the first state stamped after it
-        loop[j, L_V_REF] = loop[j, L_NEXT_V]
-        loop[j, L_W_REF] = loop[j, L_NEXT_W]
-        if loop[j, L_NEW_PLAN] != 0.0:
-            loop[j, L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
-            loop[j, L_NEW_PLAN] = 0.0
-            loop[j, L_COMMANDED] = 1.0
-    results[j, Z_SIM_TIME] = t
-    results[j, Z_SAMPLES] = k + 1
-    if (k == int(run[U_N_SAMPLES]) - 1 or results[j, Z_FALLEN] != 0.0
-            or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(results[j, Z_REACHED_AT]))):
-        return True
-    torque_limit = torque_limits[j]
-    loop[j, L_LEFT] = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
-    loop[j, L_RIGHT] = min(max(control_out[j, O_RIGHT], -torque_limit), torque_limit)
-    return False
-
-
 @kernel
 def robot_moved(run, results, segments, draws, i, fallen):
     """Book robot i's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
@@ -459,6 +312,16 @@ def from_lanes(lanes, rows, running, lo, size):
             rows[i, k] = lanes[k, j]
 
 
+@inline_kernel
+def shares_substeps(robot_substeps, running, lo, size):
+    """Whether robots running[lo:lo + size] take the same RK4 sub-steps (else their group steps robot by
+    robot)."""
+    for j in range(1, size):  # noqa: SIM110 - numba compiles no generator for all()
+        if robot_substeps[running[lo + j]] != robot_substeps[running[lo]]:
+            return False
+    return True
+
+
 SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread, one by one
 
 
@@ -466,22 +329,162 @@ SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread,
 def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
              profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
              memories):
-    """The samples (robot_sample) of running[lo:hi]; ended[q]: robot running[q]'s run ends there, its result
-    then complete. One call per share of robots: a call passes its arrays with reference counting, which
-    cost more than a sample's arithmetic when it was made per robot."""
+    """The samples of robots running[lo:hi], each as run_closed_loop's: sense the state, assess the world,
+    plan, control. ended[q]: robot running[q]'s run ends there, its result then complete; else the torques
+    to apply until its next sample are in loop[j].
+
+    One call per share of robots (a thread's), the robots' loop in it. Its arrays are indexed by robot
+    (states[j, S_TH]), not through row views or an inlined function's parameters: numba takes and drops a
+    reference count for each, an atomic operation on a counter the two threads share. Rows are taken only
+    for the calls that want one (the planner and the world at their rates, the sensors' models, the
+    controller); the controller's settings are this call's copy."""
+    loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
+        derivative, reading, odometry, loads, estimator_m = memories
+    h = run[U_H]
+    has_target = run[U_HAS_TARGET] != 0.0
+    sensors = run[U_SENSORS] != 0.0
+    estimate = run[U_ESTIMATE] != 0.0
+    friction = run[U_FRICTION]
+    derive = reads_derivative(run)
+    c = c.copy()
     for q in range(lo, hi):
-        i = running[q]
-        ended[q] = robot_sample(params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
-                                profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m,
-                                estimator_q, torque_limits, memories, i)
-        if ended[q]:
-            robot_end(run, results, memories, i)
+        j = running[q]
+        ended[q] = False
+        step_count = results[j, Z_PHYSICS_STEPS]
+        k = int(step_count) // int(run[U_STEPS_PER_CONTROL])  # the samples before this one
+        t = step_count * h
+        x = states[j, S_XC]  # the truth, for the world's assessment
+        y = states[j, S_YC]
+        pitch = states[j, S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
+        pitch_rate = states[j, S_THD]
+        odom_x = x  # what odom says, for the planner and the velocity loop
+        odom_y = y
+        odom_yaw = states[j, S_PSI]
+        odom_velocity = states[j, S_XD]
+        yaw_rate = states[j, S_PSID]
+        derived = loop[j, L_DERIVED] != 0.0  # by the physics, in lanes
+        loop[j, L_DERIVED] = 0.0
+        if derive and not derived:  # under the command applied now
+            derivatives(params[j], states[j], loop[j, L_LEFT], loop[j, L_RIGHT], derivative[j])
+        if sensors:  # as Simulator.sense: the imu, then the encoders, once per state
+            imu_sample(params[j], imu_c, imu_m[j], generators[j], states[j], derivative[j], reading[j])
+            encoder_sample(params[j], encoder_c, encoder_m[j], states[j], odometry[j])
+            odom_x = odometry[j, J_X]
+            odom_y = odometry[j, J_Y]
+            odom_yaw = odometry[j, J_YAW]
+            odom_velocity = odometry[j, J_VELOCITY]
+            yaw_rate = odometry[j, J_YAW_RATE]
+            pitch = reading[j, R_PITCH]
+            pitch_rate = reading[j, R_GYRO + 1]
+            if estimate:
+                estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, R_ACCEL],
+                                 reading[j, R_ACCEL + 2], odom_velocity)
+                pitch = estimator_m[j, E_PITCH]
+                pitch_rate = estimator_m[j, E_PITCH_RATE]
+        if friction > 0.0:
+            if not derived:
+                wheel_loads(params[j], states[j], derivative[j], loads[j])
+            now_lifted, now_slipping = traction_flags(loads[j], friction)
+            results[j, Z_LIFT_EVENTS] += 1 if now_lifted and loop[j, L_LIFTED] == 0.0 else 0
+            results[j, Z_SLIP_EVENTS] += 1 if now_slipping and loop[j, L_SLIPPING] == 0.0 else 0
+            loop[j, L_LIFTED_SAMPLES] += 1 if now_lifted else 0
+            loop[j, L_SLIPPING_SAMPLES] += 1 if now_slipping else 0
+            loop[j, L_LIFTED] = 1.0 if now_lifted else 0.0
+            loop[j, L_SLIPPING] = 1.0 if now_slipping else 0.0
+        results[j, Z_PITCH_ERROR_SQUARES] += (pitch - states[j, S_TH]) ** 2
+        # the velocity loop's speed: odom's, or the estimator's fused one
+        velocity = estimator_m[j, E_VELOCITY_ESTIMATE] if estimate else odom_velocity
+        if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
+            loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
+            obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
+            collisions_before = tally[j, W_COLLISIONS]
+            clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
+            results[j, Z_MIN_CLEARANCE] = min(results[j, Z_MIN_CLEARANCE], clearance)
+            if results[j, Z_HIT_OBSTACLE] < 0 and tally[j, W_COLLISIONS] > collisions_before:
+                results[j, Z_HIT_OBSTACLE] = hit
+                if detected[j, hit]:
+                    results[j, Z_DETECTED:Z_DETECTED + 6] = detected_at[j, hit]
+                else:  # it came into range and hit between two plans: the robot now
+                    results[j, Z_DETECTED:Z_DETECTED + 6] = (t, x, y, states[j, S_PSI], states[j, S_XD],
+                                                             states[j, S_PSID])
+            if has_target and math.isnan(results[j, Z_REACHED_AT]):
+                tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
+                if math.hypot(tx - x, ty - y) <= run[U_CAPTURE_RADIUS]:
+                    results[j, Z_REACHED_AT] = t
+        if has_target:
+            if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
+                loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
+                tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
+                obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
+                plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
+                          tvy, positions[j], obstacle_velocity[j], radii, distances[j])
+                loop[j, L_NEXT_V] = plan_out[j, Q_V]
+                loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
+                loop[j, L_NEW_PLAN] = 1.0
+                stuck = plan_out[j, Q_MODE] == STUCK
+                results[j, Z_STUCK_AT_END] = 1.0 if stuck else 0.0
+                if stuck:
+                    results[j, Z_STUCK_STEPS] += 1
+                results[j, Z_FINAL_DISTANCE] = plan_out[j, Q_DISTANCE]
+                for o in range(radii.shape[0]):
+                    inside = distances[j, o] <= a[A_RHO_O]
+                    if inside and not detected[j, o]:
+                        detected_at[j, o, 0] = t
+                        detected_at[j, o, 1] = x
+                        detected_at[j, o, 2] = y
+                        detected_at[j, o, 3] = states[j, S_PSI]
+                        detected_at[j, o, 4] = states[j, S_XD]
+                        detected_at[j, o, 5] = states[j, S_PSID]
+                    detected[j, o] = inside
+        else:
+            v_ref, w_ref = command_profile_at(profile[0], profile[1], profile[2], t)
+            loop[j, L_V_REF] = v_ref
+            loop[j, L_W_REF] = w_ref
+            loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
+        hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
+        cascade_compute(c, control[j], control_out[j], t, loop[j, L_V_REF], loop[j, L_W_REF], velocity, yaw_rate, pitch,
+                        pitch_rate, loop[j, L_COMMANDED] == 0.0, hold, loop[j, L_COMMAND_STAMP])
+        true_pitch = states[j, S_TH]
+        results[j, Z_PITCH_MIN] = min(results[j, Z_PITCH_MIN], true_pitch)
+        results[j, Z_PITCH_MAX] = max(results[j, Z_PITCH_MAX], true_pitch)
+        if t >= SETTLING_TIME:
+            results[j, Z_PITCH_SETTLED] = max(results[j, Z_PITCH_SETTLED], abs(true_pitch))
+        if traces.shape[1] > 0:  # (1, 0, N_TRACE): nothing recorded
+            traces[j, k, T_T] = t
+            traces[j, k, T_X_C] = x
+            traces[j, k, T_Y_C] = y
+            traces[j, k, T_PITCH] = pitch  # what the controller used
+            traces[j, k, T_VELOCITY] = velocity
+            traces[j, k, T_YAW] = states[j, S_PSI]
+            traces[j, k, T_LEFT_TORQUE] = control_out[j, O_LEFT]
+            traces[j, k, T_RIGHT_TORQUE] = control_out[j, O_RIGHT]
+            traces[j, k, T_VELOCITY_REF] = control_out[j, O_VELOCITY_REF]
+            traces[j, k, T_YAW_RATE_REF] = control_out[j, O_YAW_RATE_REF]
+            traces[j, k, T_PITCH_TRUE] = true_pitch
+            traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
+        if has_target:  # the controller takes a cmd_vel from the first state stamped after it
+            loop[j, L_V_REF] = loop[j, L_NEXT_V]
+            loop[j, L_W_REF] = loop[j, L_NEXT_W]
+            if loop[j, L_NEW_PLAN] != 0.0:
+                loop[j, L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
+                loop[j, L_NEW_PLAN] = 0.0
+                loop[j, L_COMMANDED] = 1.0
+        results[j, Z_SIM_TIME] = t
+        results[j, Z_SAMPLES] = k + 1
+        if (k == int(run[U_N_SAMPLES]) - 1 or results[j, Z_FALLEN] != 0.0
+                or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(results[j, Z_REACHED_AT]))):
+            ended[q] = True
+            robot_end(run, results, memories, j)
+            continue
+        torque_limit = torque_limits[j]
+        loop[j, L_LEFT] = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
+        loop[j, L_RIGHT] = min(max(control_out[j, O_RIGHT], -torque_limit), torque_limit)
 
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes, threads):
-    """All robots' runs, sample by sample: every running robot's sample (robot_sample, a share of the robots per
+    """All robots' runs, sample by sample: every running robot's sample (_samples, a share of the robots per
     thread), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
     robot whose run has ended leaves the groups, so they stay full. Every robot's result is the same to
@@ -505,9 +508,11 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
+    robot_substeps = np.empty(n, dtype=np.int64)  # RK4 sub-steps per physics step: a robot's own, fixed
     for i in range(n):
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
         torque_limits[i] = wheel_torque_limit(params[i])
+        robot_substeps[i] = substeps(params[i], h)
     running = np.arange(n)  # the robots whose run goes on, in order
     ended = np.zeros(n, dtype=np.bool_)
     n_running = n
@@ -543,7 +548,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
             lo = g * group
             size = min(m, lo + group) - lo
             p, s, left, right, work, moving, fell = lane_group(n_params)
-            if shared_substeps(params, running[lo:lo + size], h) > 0:
+            if shares_substeps(robot_substeps, running, lo, size):
                 for j in range(size):
                     i = running[lo + j]
                     for k in range(n_params):
