@@ -268,17 +268,19 @@ def reads_derivative(run):
 
 
 @kernel
-def robot_moved(run, results, segments, draws, i, fallen):
-    """Book robot i's physics since its last sample (steps_per_control steps; `fallen`: it fell in them)
-    and move its target on (its segment's rows only when a turn is due: a row is a view, whose reference
-    count the threads contend for)."""
-    results[i, Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
-    if fallen:
-        results[i, Z_FALLEN] = 1.0
-    t = results[i, Z_PHYSICS_STEPS] * run[U_H]
-    if (run[U_HAS_TARGET] != 0.0 and t >= segments[i, SEG_T] + run[U_TURN_INTERVAL]
-            and not advance_segments(segments[i], draws[i], t, run[U_TARGET_SPEED], run[U_TURN_INTERVAL])):
-        raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
+def robots_moved(run, results, segments, draws, running, lo, size, fell):
+    """Book the physics of robots running[lo:lo + size] since their last sample (steps_per_control steps;
+    fell[j]: robot running[lo + j] fell in them) and move their targets on. One call per group: a call
+    takes a reference count on each array it is passed, which the threads contend for."""
+    for j in range(size):
+        i = running[lo + j]
+        results[i, Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
+        if fell[j]:
+            results[i, Z_FALLEN] = 1.0
+        t = results[i, Z_PHYSICS_STEPS] * run[U_H]
+        if (run[U_HAS_TARGET] != 0.0 and t >= segments[i, SEG_T] + run[U_TURN_INTERVAL]  # a turn is due
+                and not advance_segments(segments[i], draws[i], t, run[U_TARGET_SPEED], run[U_TURN_INTERVAL])):
+            raise ValueError("batch: the target's yaw-rate draws ran out (size them with draws_needed)")
 
 
 @inline_kernel
@@ -536,11 +538,12 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
         n_running = m
         if m <= SERIAL_ROBOTS:
             one = np.empty((WORK_ROWS, N_STATE))
+            fell = np.zeros(m, dtype=np.bool_)
             for q in range(m):
                 i = running[q]
-                fallen = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
-                                         steps_per_control, one)
-                robot_moved(run, results, segments, draws, i, fallen)
+                fell[q] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
+                                          steps_per_control, one)
+            robots_moved(run, results, segments, draws, running, 0, m, fell)
             continue
         # groups of up to `lanes` robots, and at least one per thread while there are robots for it
         group = min(lanes, (m + threads - 1) // threads)
@@ -573,9 +576,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                     i = running[lo + j]
                     fell[j] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
                                               steps_per_control, one)
-            for j in range(size):
-                i = running[lo + j]
-                robot_moved(run, results, segments, draws, i, fell[j])
+            robots_moved(run, results, segments, draws, running, lo, size, fell)
 
 
 def group_size(n: int) -> int:
