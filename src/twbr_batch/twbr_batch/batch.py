@@ -545,38 +545,44 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                                           steps_per_control, one)
             robots_moved(run, results, segments, draws, running, 0, m, fell)
             continue
-        # groups of up to `lanes` robots, and at least one per thread while there are robots for it
+        # groups of up to `lanes` robots, and at least one per thread while there are robots for it; each
+        # thread steps a share of the groups with one set of lane arrays (allocating them per group cost
+        # an allocation and a free per array, group and sample)
         group = min(lanes, (m + threads - 1) // threads)
-        for g in prange((m + group - 1) // group):
-            lo = g * group
-            size = min(m, lo + group) - lo
+        n_groups = (m + group - 1) // group
+        for w in prange(threads):
             p, s, left, right, work, moving, fell = lane_group(n_params)
-            if shares_substeps(robot_substeps, running, lo, size):
-                for j in range(size):
-                    i = running[lo + j]
-                    for k in range(n_params):
-                        p[k, j] = params[i, k]
-                    for k in range(N_STATE):
-                        s[k, j] = states[i, k]
-                    left[j] = loop[i, L_LEFT]
-                    right[j] = loop[i, L_RIGHT]
-                advance_upright_lanes(p, s, left, right, h, steps_per_control, work, size, moving, fell)
-                from_lanes(s, states, running, lo, size)
-                if derive:  # the next sample's derivative and wheel loads, vectorised here
-                    ds = np.empty((N_STATE, LANES))
-                    wl = np.empty((N_TRACTION_OUTPUTS, LANES))
-                    derive_lanes(p, s, left, right, ds, wl, size, friction)
-                    from_lanes(ds, derivative, running, lo, size)
-                    from_lanes(wl, loads, running, lo, size)
+            ds = np.empty((N_STATE, LANES))
+            wl = np.empty((N_TRACTION_OUTPUTS, LANES))
+            one = np.empty((WORK_ROWS, N_STATE))
+            for g in range(w * n_groups // threads, (w + 1) * n_groups // threads):
+                lo = g * group
+                size = min(m, lo + group) - lo
+                moving[:] = True
+                fell[:] = False
+                if shares_substeps(robot_substeps, running, lo, size):
                     for j in range(size):
-                        loop[running[lo + j], L_DERIVED] = 1.0
-            else:
-                one = np.empty((WORK_ROWS, N_STATE))
-                for j in range(size):
-                    i = running[lo + j]
-                    fell[j] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
-                                              steps_per_control, one)
-            robots_moved(run, results, segments, draws, running, lo, size, fell)
+                        i = running[lo + j]
+                        for k in range(n_params):
+                            p[k, j] = params[i, k]
+                        for k in range(N_STATE):
+                            s[k, j] = states[i, k]
+                        left[j] = loop[i, L_LEFT]
+                        right[j] = loop[i, L_RIGHT]
+                    advance_upright_lanes(p, s, left, right, h, steps_per_control, work, size, moving, fell)
+                    from_lanes(s, states, running, lo, size)
+                    if derive:  # the next sample's derivative and wheel loads, vectorised here
+                        derive_lanes(p, s, left, right, ds, wl, size, friction)
+                        from_lanes(ds, derivative, running, lo, size)
+                        from_lanes(wl, loads, running, lo, size)
+                        for j in range(size):
+                            loop[running[lo + j], L_DERIVED] = 1.0
+                else:
+                    for j in range(size):
+                        i = running[lo + j]
+                        fell[j] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
+                                                  steps_per_control, one)
+                robots_moved(run, results, segments, draws, running, lo, size, fell)
 
 
 def group_size(n: int) -> int:
