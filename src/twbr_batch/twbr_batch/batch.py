@@ -515,6 +515,8 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
         torque_limits[i] = wheel_torque_limit(params[i])
         robot_substeps[i] = substeps(params[i], h)
+    serial_work = np.empty((WORK_ROWS, N_STATE))  # the last few robots' physics, one by one
+    serial_fell = np.zeros(SERIAL_ROBOTS, dtype=np.bool_)
     running = np.arange(n)  # the robots whose run goes on, in order
     ended = np.zeros(n, dtype=np.bool_)
     n_running = n
@@ -537,13 +539,11 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                 m += 1
         n_running = m
         if m <= SERIAL_ROBOTS:
-            one = np.empty((WORK_ROWS, N_STATE))
-            fell = np.zeros(m, dtype=np.bool_)
             for q in range(m):
                 i = running[q]
-                fell[q] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
-                                          steps_per_control, one)
-            robots_moved(run, results, segments, draws, running, 0, m, fell)
+                serial_fell[q] = advance_upright(params[i], states[i], loop[i, L_LEFT], loop[i, L_RIGHT], h,
+                                                 steps_per_control, serial_work)
+            robots_moved(run, results, segments, draws, running, 0, m, serial_fell)
             continue
         # groups of up to `lanes` robots, and at least one per thread while there are robots for it; each
         # thread steps a share of the groups with one set of lane arrays (allocating them per group cost
