@@ -12,6 +12,7 @@ from twbr_common.params import ConfigError
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario, scenario_names, sensor_preset
+from twbr_sim.world import N_SEGMENT, SEG_NEXT_DRAW, SEG_T, SEG_YAW_RATE, advance_segments
 
 # (trace column, Trace field): what both record at every control sample.
 COMPARED = (("t", "stamp"), ("pitch", "pitch"), ("velocity", "velocity"), ("left_torque", "left_torque"),
@@ -112,6 +113,36 @@ def test_robots_stepped_together_run_as_each_alone(sim):
             samples = int(alone[i].table[0, batch.Z_SAMPLES])
             np.testing.assert_array_equal(together.traces[i, :samples], alone[i].traces[0, :samples],
                                           err_msg=f"robot {i}")
+
+
+def test_the_targets_move_on_at_their_turns_and_a_short_draw_list_is_an_error():
+    # The batch books a group's physics in one call (robots_moved), moving each robot's target on to the
+    # segment of its new time only when a turn is due; the draws are sized by draws_needed, so running out
+    # of them is the batch's own error, never a silently frozen target.
+    run = batch.RUN_LAYOUT.pack({name: 0.0 for name in batch.RUN_LAYOUT.names})
+    run[batch.U_H] = 0.001
+    run[batch.U_STEPS_PER_CONTROL] = 5
+    run[batch.U_HAS_TARGET] = 1.0
+    run[batch.U_TARGET_SPEED] = 0.5
+    run[batch.U_TURN_INTERVAL] = 1.0
+    results = np.zeros((2, batch.N_RESULT))
+    results[:, batch.Z_PHYSICS_STEPS] = (995, 990)  # robot 0's step reaches t = 1 s, robot 1's does not
+    segments = np.zeros((2, N_SEGMENT))
+    segments[:, SEG_YAW_RATE] = 0.3
+    segments[:, SEG_NEXT_DRAW] = 1
+    draws = np.array([[0.3, -0.2, 0.1], [0.3, -0.2, 0.1]])
+    running = np.array([0, 1])
+    batch.robots_moved(run, results, segments, draws, running, 0, 2, np.array([False, True]))
+    assert results[:, batch.Z_PHYSICS_STEPS].tolist() == [1000, 995]
+    assert results[:, batch.Z_FALLEN].tolist() == [0.0, 1.0]
+    assert segments[0, SEG_T] == 1.0 and segments[0, SEG_YAW_RATE] == -0.2 and segments[0, SEG_NEXT_DRAW] == 2
+    assert segments[1, SEG_T] == 0.0 and segments[1, SEG_YAW_RATE] == 0.3  # no turn due: left as it was
+    expected = segments[0].copy()
+    advance_segments(expected, draws[0], 1.0, 0.5, 1.0)  # the world's own step: nothing more to do
+    np.testing.assert_array_equal(segments[0], expected)
+    results[0, batch.Z_PHYSICS_STEPS] = 2995  # two turns later: the third draw is the last there is
+    with pytest.raises(ValueError, match="draws ran out"):
+        batch.robots_moved(run, results, segments, draws, running, 0, 1, np.array([False]))
 
 
 def test_mismatched_inputs_are_refused():
