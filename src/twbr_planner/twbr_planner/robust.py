@@ -260,6 +260,8 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     w_hi = min(m[R_LAST_OMEGA] + dw, a[A_MAX_YAW_RATE])
     v0 = min(max(v_nominal, v_lo), v_hi)
     w0 = min(max(omega_nominal, w_lo), w_hi)
+    v_nominal = float(v_nominal)
+    omega_nominal = float(omega_nominal)
     ex = math.cos(yaw)
     ey = math.sin(yaw)
     look = a[A_SAFETY_LOOKAHEAD] if v_nominal >= 0.0 else -a[A_SAFETY_LOOKAHEAD]
@@ -269,10 +271,11 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     # Each obstacle in range gives a constraint linear in the command: cv * A + cw * B + C >= 0; a robot
     # turning on the spot moves no part of its round footprint, so a command with cv = 0 is held to the
     # axle's own barrier D >= 0 instead (the point ahead would forbid the turn that leaves a boundary).
+    # They are kept as (A, B, C, D, obstacle) tuples of floats: the same arithmetic compiled, and in the
+    # interpreted node (TWBR_JIT=off) the candidate grid below works on Python floats, not numpy elements
+    # (its time sits in the navigation graph's control latency at every plan: benchmarks/README.md).
+    constraints = []
     n = radii.shape[0]
-    coef = np.empty((n, 4))
-    index = np.empty(n, dtype=np.int64)
-    count = 0
     for j in range(n):
         if j == threat:
             continue
@@ -286,15 +289,16 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
             # an obstacle faster than the robot is left to the evasion until it is near: a barrier on its
             # distance would turn the robot away from it, along its path, where it cannot outrun it
             continue
-        coef[count, 0] = 2.0 * (rx * ex + ry * ey)
-        coef[count, 1] = 2.0 * look * (ry * ex - rx * ey)
-        coef[count, 2] = -2.0 * (rx * velocities[j, 0] + ry * velocities[j, 1]) + gamma * (centre * centre - reach * reach)
         px = x - positions[j, 0]
         py = y - positions[j, 1]
-        coef[count, 3] = -2.0 * (px * velocities[j, 0] + py * velocities[j, 1]) + gamma * (px * px + py * py - reach * reach)
-        index[count] = j
-        count += 1
-    if count == 0:
+        constraints.append((
+            float(2.0 * (rx * ex + ry * ey)),
+            float(2.0 * look * (ry * ex - rx * ey)),
+            float(-2.0 * (rx * velocities[j, 0] + ry * velocities[j, 1]) + gamma * (centre * centre - reach * reach)),
+            float(-2.0 * (px * velocities[j, 0] + py * velocities[j, 1]) + gamma * (px * px + py * py - reach * reach)),
+            j,
+        ))
+    if len(constraints) == 0:
         return v0, w0, -1
     best_v = v0
     best_w = w0
@@ -302,20 +306,22 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     best_violation = math.inf
     best_binding = -1
     for i in range(V_CANDIDATES + 1):
-        cv = v0 if i == V_CANDIDATES else v_lo + (v_hi - v_lo) * i / (V_CANDIDATES - 1)
+        cv = float(v0 if i == V_CANDIDATES else v_lo + (v_hi - v_lo) * i / (V_CANDIDATES - 1))
         for k in range(OMEGA_CANDIDATES + 1):
-            cw = w0 if k == OMEGA_CANDIDATES else w_lo + (w_hi - w_lo) * k / (OMEGA_CANDIDATES - 1)
+            cw = float(w0 if k == OMEGA_CANDIDATES else w_lo + (w_hi - w_lo) * k / (OMEGA_CANDIDATES - 1))
             violation = 0.0
             slack = math.inf
             binding = -1
-            for c in range(count):
-                s = coef[c, 3] if cv == 0.0 else cv * coef[c, 0] + cw * coef[c, 1] + coef[c, 2]
+            for along, turn, const, axle, j in constraints:
+                s = axle if cv == 0.0 else cv * along + cw * turn + const
                 if s < 0.0:
                     violation -= s
                 if s < slack:
                     slack = s
-                    binding = index[c]
-            cost = (cv - v_nominal) ** 2 + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
+                    binding = j
+            v_change = cv - v_nominal
+            w_change = cw - omega_nominal
+            cost = v_change * v_change + OMEGA_WEIGHT * (w_change * w_change)
             # the least total violation (none: admissible), and among equals the nearest the nominal command;
             # a constraint no candidate can help (a wall straight ahead while braking) leaves the steering free
             if violation < best_violation - VIOLATION_TIE or (
