@@ -76,7 +76,8 @@ from twbr_sim.dynamics import (
     initial_state,
     lane_derivatives,
     lane_group,
-    substeps,
+    robot_substeps,
+    shared_substeps,
 )
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
@@ -271,7 +272,7 @@ def reads_derivative(run):
 def robots_moved(run, results, segments, draws, running, lo, size, fell):
     """Book the physics of robots running[lo:lo + size] since their last sample (steps_per_control steps;
     fell[j]: robot running[lo + j] fell in them) and move their targets on. One call per group: a call
-    takes a reference count on each array it is passed, which the threads contend for."""
+    takes and drops a reference count on each array it is passed."""
     for j in range(size):
         i = running[lo + j]
         results[i, Z_PHYSICS_STEPS] += run[U_STEPS_PER_CONTROL]
@@ -312,16 +313,6 @@ def from_lanes(lanes, rows, running, lo, size):
         i = running[lo + j]
         for k in range(lanes.shape[0]):
             rows[i, k] = lanes[k, j]
-
-
-@inline_kernel
-def shares_substeps(robot_substeps, running, lo, size):
-    """Whether robots running[lo:lo + size] take the same RK4 sub-steps (else their group steps robot by
-    robot)."""
-    for j in range(1, size):  # noqa: SIM110 - numba compiles no generator for all()
-        if robot_substeps[running[lo + j]] != robot_substeps[running[lo]]:
-            return False
-    return True
 
 
 SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread, one by one
@@ -510,11 +501,10 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
-    robot_substeps = np.empty(n, dtype=np.int64)  # RK4 sub-steps per physics step: a robot's own, fixed
     for i in range(n):
         robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
         torque_limits[i] = wheel_torque_limit(params[i])
-        robot_substeps[i] = substeps(params[i], h)
+    n_subs = robot_substeps(params, h)
     serial_work = np.empty((WORK_ROWS, N_STATE))  # the last few robots' physics, one by one
     serial_fell = np.zeros(SERIAL_ROBOTS, dtype=np.bool_)
     running = np.arange(n)  # the robots whose run goes on, in order
@@ -560,7 +550,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
                 size = min(m, lo + group) - lo
                 moving[:] = True
                 fell[:] = False
-                if shares_substeps(robot_substeps, running, lo, size):
+                if shared_substeps(n_subs, running, lo, size) > 0:
                     for j in range(size):
                         i = running[lo + j]
                         for k in range(n_params):

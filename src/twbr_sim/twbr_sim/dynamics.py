@@ -324,12 +324,22 @@ LANES = 64  # robots stepped together: their work arrays (30 KiB) stay in the L1
 
 
 @_jit
-def shared_substeps(params, rows, h):
-    """The RK4 sub-steps per step of length h that the robots params[rows] all need; 0 when they differ
-    (their group then steps robot by robot)."""
-    n_sub = substeps(params[rows[0]], h)
-    for i in rows:
-        if substeps(params[i], h) != n_sub:
+def robot_substeps(params, h):
+    """Each robot's RK4 sub-steps per step of length h (substeps of each row of params): fixed by its
+    parameters, so counted once, not per group and step."""
+    counts = np.empty(params.shape[0], dtype=np.int64)
+    for i in range(params.shape[0]):
+        counts[i] = substeps(params[i], h)
+    return counts
+
+
+@_lane
+def shared_substeps(counts, rows, lo, size):
+    """The RK4 sub-steps that robots rows[lo:lo + size] all take (counts: robot_substeps); 0 when they
+    differ (their group then steps robot by robot)."""
+    n_sub = counts[rows[lo]]
+    for j in range(1, size):
+        if counts[rows[lo + j]] != n_sub:
             return 0
     return n_sub
 
@@ -366,10 +376,12 @@ def step_batch(params, states, commands, h, n_steps):
     """
     n = states.shape[0]
     n_params = params.shape[1]
+    counts = robot_substeps(params, h)
+    rows = np.arange(n)
     for g in prange((n + LANES - 1) // LANES):
         lo = g * LANES
         lanes = min(n, lo + LANES) - lo
-        n_sub = shared_substeps(params, np.arange(lo, lo + lanes), h)
+        n_sub = shared_substeps(counts, rows, lo, lanes)
         if n_sub == 0:
             work = np.empty((WORK_ROWS, N_STATE))
             for i in range(lo, lo + lanes):
