@@ -217,7 +217,9 @@ class PlannerNode(Node):
         else:
             self.pub_cmd.publish(twist)
         self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision, planning_time))
-        if self._marker_due.due(out.stamp):
+        # Markers are for a viewer or a recorder: built only while one listens (CPU the controller beside
+        # the planner can use).
+        if self._marker_due.due(out.stamp) and self.pub_markers.get_subscription_count():
             self.pub_markers.publish(force_markers(out, odom, x, y))
 
 

@@ -266,7 +266,7 @@ class SimNode(Node):
             q = pose.orientation
             tf.transform.rotation = Quaternion(x=q.x, y=q.y, z=q.z, w=q.w)  # odom's is refilled next state
             out.append((self.pub_tf, TFMessage(transforms=[tf])))
-        if due.markers:
+        if due.markers and self.pub_markers.get_subscription_count():  # built only while a viewer listens
             world = sim.world
             out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,
                                                         stamp, self._frame_odom)))
@@ -396,18 +396,28 @@ class SimNode(Node):
         self._exchanges += 1
 
     def _run_lockstep(self) -> None:
+        """Offer a state, wait for its answers, step. The answered state's telemetry goes out after the next
+        state, while the controller computes on it: not between the answer and the next state (the critical
+        path). At a state the planner answers too, controller and planner already fill both cores of a small
+        machine: there the telemetry is held until the controller's command is in (it then goes out while the
+        planner's answer is awaited), not sent beside them (benchmarks/README.md, issue 19)."""
         executor = self._executor
         exchange = self.exchange
         timeout = self.cfg["lockstep_timeout"]
         self.publish_control_state()
-        state_telemetry = self.state_telemetry()
+        state_telemetry: list[tuple] = self.state_telemetry()
+        held: list[tuple] | None = None
         while self.context.ok() and not self._finished():
             deadline = time.monotonic() + timeout
             while not exchange.answered() and self.context.ok():
+                if held is not None and exchange.command_matched:
+                    state_telemetry, held = self._release(held), None
                 remaining = deadline - time.monotonic()
                 if remaining <= 0.0:
                     break
                 executor.spin_once(timeout_sec=remaining)
+            if held is not None:
+                state_telemetry, held = self._release(held), None
             if not exchange.answered():
                 missing = exchange.missing().value
                 if exchange.timed_out() is TimeoutAction.OFFER_AGAIN:
@@ -423,14 +433,21 @@ class SimNode(Node):
                     throttle_duration_sec=1.0,
                 )
             exchange.stepping()
-            # The answered state's telemetry goes out after the next state: while the controller computes
-            # on it, not between the answer and the next state (the critical path of lockstep).
             telemetry = state_telemetry + self.answer_telemetry()
             self._step()
             self.publish_control_state()
-            publish_each(telemetry)
-            state_telemetry = self.state_telemetry()
+            if exchange.planner_due:
+                held = telemetry
+            else:
+                state_telemetry = self._release(telemetry)
+        if held is not None:
+            state_telemetry = self._release(held)
         publish_each(state_telemetry + self.answer_telemetry())
+
+    def _release(self, telemetry: list[tuple]) -> list[tuple]:
+        """Send the answered state's telemetry; return the current state's (built while its answer is awaited)."""
+        publish_each(telemetry)
+        return self.state_telemetry()
 
     def _run_realtime(self) -> None:
         """Each period: the state at its tick, then the controller's answer, then telemetry and the next

@@ -101,7 +101,7 @@ class WorldNode(Node):
         if self._robot_xy is not None and not self._odom_guard.is_stale(self._now()):
             a = self.world.assess(*self._robot_xy)
             self.pub_status.publish(world_status_message(a, self.world.collision_count, stamp, self.frame))
-        if self._marker_due.due(t):
+        if self._marker_due.due(t) and self.pub_markers.get_subscription_count():  # only while a viewer listens
             self.pub_markers.publish(
                 world_markers(target, self.world.obstacles(), self.world.capture_radius, stamp, self.frame)
             )
