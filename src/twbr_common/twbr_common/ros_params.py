@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import faulthandler
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 import rclpy
@@ -32,6 +34,11 @@ from twbr_common.params import ConfigError, ParamSpec
 from twbr_common.streams import InputStreams
 
 EXIT_CONFIG_ERROR = 2
+# The longest a node's teardown may take before the process is ended anyway (the viewer's last flush
+# included). Fast DDS 2.14 can hang for good in rcl_node_fini, spinning a core in
+# DomainParticipant::set_listener while a discovery callback waits on a lock (seen on this machine when
+# nodes of a graph stop together; eProsima/Fast-DDS#6513): a Ctrl-C must still end the process.
+SHUTDOWN_GRACE_S = 10.0
 
 _TYPES = {
     bool: ParameterType.PARAMETER_BOOL,
@@ -128,11 +135,29 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.try_shutdown()
+        with exit_deadline(SHUTDOWN_GRACE_S):
+            if node is not None:
+                node.destroy_node()
+            if rclpy.ok():
+                rclpy.try_shutdown()
     return code
+
+
+@contextlib.contextmanager
+def exit_deadline(seconds: float) -> Iterator[None]:
+    """End the process (exit code 1, the stuck thread's traceback on stderr after "Timeout") if the block
+    has not finished within `seconds`. faulthandler's watchdog is a C thread: it fires even when the stuck
+    call holds the GIL, as rcl_node_fini does."""
+    stderr = sys.__stderr__
+    try:
+        faulthandler.dump_traceback_later(seconds, exit=True, file=stderr)
+    except (AttributeError, OSError, RuntimeError, ValueError):  # no stderr file descriptor: nothing to write the reason to
+        yield
+        return
+    try:
+        yield
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 def input_streams(node: Node) -> InputStreams:
