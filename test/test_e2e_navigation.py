@@ -14,6 +14,7 @@ import sys
 
 import pytest
 
+from twbr_common.ros_io import stamp_ns
 from twbr_runner.bag_reader import read_messages
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
@@ -65,6 +66,11 @@ def test_default_seed_reaches_the_target_and_draws_the_papers_figures(tmp_path, 
     assert planner[-1][1].mode in ("arrived", "following", "avoiding", "tracking")
     assert planner[-1][1].distance_to_target < 0.6
     assert {msg.method for _t, msg in planner} == {"paper"}  # the scenario pins the paper's planner
+    # Every state's joints reach the bag once, those of the planner's instants too (lockstep holds them
+    # until the controller's command is in, then sends them).
+    bag = read_messages(run_dir / "bag", ["/odom", "/joint_states"])
+    joints = [stamp_ns(msg.header.stamp) for _t, msg in bag["/joint_states"]]
+    assert sorted(joints) == sorted({stamp_ns(msg.header.stamp) for _t, msg in bag["/odom"]})
 
 
 # The static scenario has no random element (the seed draws the target's turns and IMU noise, and it has

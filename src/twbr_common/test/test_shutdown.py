@@ -10,7 +10,7 @@ import time
 # The child: a node that runs once and whose destroy_node never returns, holding the GIL in C as
 # rcl_node_fini does when it hangs (a busy loop of C calls that never releases it for long).
 CHILD = """
-import sys, time
+import sys
 import rclpy
 from rclpy.node import Node
 from twbr_common import ros_params
