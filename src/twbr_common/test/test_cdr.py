@@ -8,7 +8,15 @@ from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import Imu
 
 from twbr_common import cdr
-from twbr_common.cdr import header_stamp_seconds, imu_fields, imu_fields_of, odom_twist, odom_twist_of
+from twbr_common.cdr import (
+    header_stamp_seconds,
+    imu_fields,
+    imu_fields_of,
+    odom_pose,
+    odom_pose_of,
+    odom_twist,
+    odom_twist_of,
+)
 from twbr_common.ros_io import stamp_seconds
 
 # frame_id lengths from empty to past a double's alignment, so every padding case is read
@@ -72,6 +80,26 @@ def test_odom_twist_read_from_the_bytes_is_the_deserialized_one(frame, child):
 
 
 @pytest.mark.parametrize("frame", FRAMES)
+@pytest.mark.parametrize("child", FRAMES)
+def test_odom_pose_read_from_the_bytes_is_the_deserialized_one(frame, child):
+    msg = odometry(frame, child, -1.3)
+    data = serialize_message(msg)
+    assert cdr._plain_odom_pose(data) is not None
+    pose = odom_pose(data)
+    assert pose == odom_pose_of(msg)
+    assert (pose.frame_id, pose.child_frame_id, pose.x, pose.velocity) == (frame, child, 1.5 * -1.3, 0.3 * -1.3)
+
+
+def test_a_frame_name_beyond_ascii_is_read_in_place_and_one_not_utf8_is_left_to_the_deserializer():
+    msg = odometry("carte_été", "base_link", 1.0)
+    assert cdr._plain_odom_pose(serialize_message(msg)) == odom_pose_of(msg)
+    data = bytearray(serialize_message(odometry("odom", "base_link", 1.0)))
+    data[16] = 0xFF  # frame_id's first byte
+    assert cdr._plain_odom_pose(bytes(data)) is None
+    assert odom_pose(bytes(data)).frame_id[1:] == "dom"  # rclpy's reading: the bad byte replaced
+
+
+@pytest.mark.parametrize("frame", FRAMES)
 @pytest.mark.parametrize("raw", [False, True])
 def test_imu_fields_read_from_the_bytes_are_the_deserialized_ones(frame, raw):
     msg = imu(frame, -0.8, raw)
@@ -97,6 +125,7 @@ def test_big_endian_messages_are_read_in_place_too(frame):
     odom = odometry(frame, "base_link", 0.9)
     data = big_endian(odom, "nav_msgs/msg/Odometry")
     assert cdr._plain_odom_twist(data) == odom_twist_of(odom)
+    assert cdr._plain_odom_pose(data) == odom_pose_of(odom)
     reading = imu(frame, 1.1, False)
     assert cdr._plain_imu_fields(big_endian(reading, "sensor_msgs/msg/Imu")) == imu_fields_of(reading)
 
@@ -105,8 +134,10 @@ def test_bytes_the_fast_path_declines_are_deserialized(monkeypatch):
     msg = odometry("odom", "base_link", 2.0)
     reading = imu("base_link", 2.0, True)
     monkeypatch.setattr(cdr, "_plain_odom_twist", lambda data: None)
+    monkeypatch.setattr(cdr, "_plain_odom_pose", lambda data: None)
     monkeypatch.setattr(cdr, "_plain_imu_fields", lambda data: None)
     assert odom_twist(serialize_message(msg)) == odom_twist_of(msg)
+    assert odom_pose(serialize_message(msg)) == odom_pose_of(msg)
     assert imu_fields(serialize_message(reading)) == imu_fields_of(reading)
 
 
@@ -115,6 +146,7 @@ def test_truncated_bytes_are_none_never_a_misreading(cut):
     odom, reading = serialize_message(odometry("odom", "base_link", 1.0)), serialize_message(imu("imu", 1.0, False))
     assert cut < min(len(odom), len(reading))
     assert odom_twist(odom[:cut]) is None
+    assert odom_pose(odom[:cut]) is None
     assert imu_fields(reading[:cut]) is None
 
 
@@ -123,6 +155,8 @@ def test_a_string_length_past_the_end_is_declined_by_both_paths():
     lying = odom[:12] + struct.pack("<I", 10**6) + odom[16:]  # frame_id's length
     assert cdr._plain_odom_twist(lying) is None
     assert odom_twist(lying) is None
+    assert cdr._plain_odom_pose(lying) is None
+    assert odom_pose(lying) is None
 
 
 def test_another_encapsulation_is_left_to_the_deserializer():
@@ -130,3 +164,5 @@ def test_another_encapsulation_is_left_to_the_deserializer():
     pl_cdr = b"\x00\x03" + serialize_message(msg)[2:]  # PL_CDR little endian: Fast CDR reads it
     assert cdr._plain_odom_twist(pl_cdr) is None
     assert odom_twist(pl_cdr) == odom_twist_of(msg)
+    assert cdr._plain_odom_pose(pl_cdr) is None
+    assert odom_pose(pl_cdr) == odom_pose_of(msg)

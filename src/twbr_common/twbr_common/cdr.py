@@ -56,6 +56,18 @@ def _past_string(data: bytes, order: str, offset: int) -> int | None:
     return end if end <= len(data) else None
 
 
+def _string_at(data: bytes, order: str, offset: int) -> tuple[str, int] | None:
+    """The string whose length field is at (or aligned up from) `offset`, and the offset past it; None
+    unless it ends in its NUL and is UTF-8 (the deserializer then decides)."""
+    end = _past_string(data, order, offset)
+    if end is None or end - _align(offset, 4) < 5 or data[end - 1] != 0:
+        return None
+    try:
+        return data[_align(offset, 4) + 4:end - 1].decode(), end
+    except UnicodeDecodeError:
+        return None
+
+
 def _stamp(data: bytes) -> tuple[str, int, int] | None:
     """Byte order, and the sec and nanosec of the std_msgs/Header the message starts with."""
     order = _byte_order(data)
@@ -118,6 +130,47 @@ def _plain_odom_twist(data: bytes) -> OdomTwist | None:
 
 def odom_twist_of(msg: Odometry) -> OdomTwist:
     return OdomTwist(msg.header.stamp, msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+
+class OdomPose(NamedTuple):
+    """What the planner takes from odom: the stamp, both frames, the position x, y [m], the orientation
+    (x, y, z, w) and the forward speed [m/s]."""
+
+    stamp: Time
+    frame_id: str
+    child_frame_id: str
+    x: float
+    y: float
+    orientation: tuple[float, float, float, float]
+    velocity: float
+
+
+def odom_pose(data: bytes) -> OdomPose | None:
+    """From a serialized nav_msgs/Odometry; None if the bytes are not one."""
+    return _read(data, _plain_odom_pose, Odometry, odom_pose_of)
+
+
+def _plain_odom_pose(data: bytes) -> OdomPose | None:
+    stamp = _stamp(data)
+    if stamp is None:
+        return None
+    order, sec, nanosec = stamp
+    frame = _string_at(data, order, _HEADER + 8)
+    child = None if frame is None else _string_at(data, order, frame[1])
+    if child is None:
+        return None
+    pose = _align(child[1], 8)
+    if pose + _ODOM_TWIST_OFFSET + 8 * (6 + 36) > len(data):  # the whole message, as the deserializer insists
+        return None
+    x, y, _z, qx, qy, qz, qw = _unpack(order, "7d", data, pose)
+    (velocity,) = _unpack(order, "d", data, pose + _ODOM_TWIST_OFFSET)
+    return OdomPose(Time(sec=sec, nanosec=nanosec), frame[0], child[0], x, y, (qx, qy, qz, qw), velocity)
+
+
+def odom_pose_of(msg: Odometry) -> OdomPose:
+    p, o = msg.pose.pose.position, msg.pose.pose.orientation
+    return OdomPose(msg.header.stamp, msg.header.frame_id, msg.child_frame_id, p.x, p.y, (o.x, o.y, o.z, o.w),
+                    msg.twist.twist.linear.x)
 
 
 class ImuFields(NamedTuple):

@@ -4,7 +4,8 @@ Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward 
 heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
 `rate` in odom stamps, so it runs on sim time and wall time alike; an odom it will not answer is
-dropped before it is deserialized (its stamp read from the bytes). A plan at odom stamp t waits (at most
+dropped before it is read, and one it answers is read in place (twbr_common.cdr: its stamp, frames, pose and
+speed, not a deserialized message). A plan at odom stamp t waits (at most
 world_wait of wall time) for the world of its instant, target and obstacles stamped after
 t - world_period: the world of each planning instant reaches the plan even when a loaded machine delivers
 it after the odom, so a lockstep run is the same on an idle and on a busy machine. Obstacles are moved
@@ -23,7 +24,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
-from twbr_common.cdr import deserialize_or_none, header_stamp_seconds
+from twbr_common.cdr import OdomPose, header_stamp_seconds, odom_pose
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
@@ -97,7 +98,7 @@ class PlannerNode(Node):
         self._target: tuple[float, Target] | None = None
         self._obstacles: tuple[float, ObstacleArray] | None = None
         self._last_plan: tuple[float, PlannerOutput] | None = None
-        # (odom message, its stamp, x, y, yaw, speed, wall deadline): a plan due, waiting for its world.
+        # (odom, its stamp, yaw, wall deadline): a plan due, waiting for its world.
         self._pending: tuple | None = None
         self._overdue.cancel()
 
@@ -123,34 +124,33 @@ class PlannerNode(Node):
             self._plan_pending()
 
     def _on_odom_bytes(self, data: bytes) -> None:
-        """Only the odoms the planner answers are deserialized (a tenth of a 200 Hz stream at 20 Hz): its
-        planning instants, a state offered again, and any whose stamp the bytes do not show plainly."""
+        """Only the odoms the planner answers are read (a tenth of a 200 Hz stream at 20 Hz): its planning
+        instants, a state offered again, and any whose stamp the bytes do not show plainly. Read in place:
+        deserializing one costs more than the plan's own step, at the instant the controller computes too."""
         stamp = header_stamp_seconds(data)
         if stamp is not None and not self._answers(stamp):
             return
-        msg = deserialize_or_none(data, Odometry)
-        if msg is None:
+        odom = odom_pose(data)
+        if odom is None:
             self.inputs.dropped("odom", "not a nav_msgs/Odometry")
             return
-        self._on_odom(msg)
+        self._on_odom(odom)
 
     def _answers(self, stamp: float) -> bool:
         return (self._last_plan is not None and stamp == self._last_plan[0]) or self._due.would_be_due(stamp)
 
-    def _on_odom(self, msg: Odometry) -> None:
-        stamp = stamp_seconds(msg.header.stamp)
-        p, o = msg.pose.pose.position, msg.pose.pose.orientation
-        _, _, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
-        speed = msg.twist.twist.linear.x
-        if not self._admit("odom", stamp, (p.x, p.y, yaw, speed)):
+    def _on_odom(self, odom: OdomPose) -> None:
+        stamp = stamp_seconds(odom.stamp)
+        _, _, yaw = rpy_from_quaternion(*odom.orientation)
+        if not self._admit("odom", stamp, (odom.x, odom.y, yaw, odom.velocity)):
             return
         if self._last_plan is not None and stamp == self._last_plan[0]:
             # The same state offered again (a lockstep simulator waiting at t = 0): answer it again.
-            self._publish(msg, self._last_plan[1], p.x, p.y)
+            self._publish(odom, self._last_plan[1])
         elif self._due.due(stamp):
             if self._pending is not None:
                 self._plan_pending(force=True)  # the next instant is due: the last one plans with what it has
-            self._pending = (msg, stamp, p.x, p.y, yaw, speed, time.monotonic() + self.cfg["world_wait"])
+            self._pending = (odom, stamp, yaw, time.monotonic() + self.cfg["world_wait"])
             self._overdue.reset()
             self._plan_pending()
 
@@ -167,12 +167,12 @@ class PlannerNode(Node):
     def _plan_pending(self, force: bool = False) -> None:
         if self._pending is None:
             return
-        odom, stamp, x, y, yaw, speed, deadline = self._pending
+        odom, stamp, yaw, deadline = self._pending
         if not (force or self._world_current(stamp) or time.monotonic() >= deadline):
             return
         self._pending = None
         self._overdue.cancel()
-        self._plan(odom, stamp, x, y, yaw, speed)
+        self._plan(odom, stamp, yaw)
 
     def _plan_overdue(self) -> None:
         self._overdue.cancel()  # one shot: armed again by the next plan that waits
@@ -182,7 +182,7 @@ class PlannerNode(Node):
                 f" {self.cfg['world_wait']:g} s: planning with the last ones", throttle_duration_sec=2.0)
             self._plan_pending(force=True)
 
-    def _plan(self, odom: Odometry, stamp: float, x: float, y: float, yaw: float, speed: float) -> None:
+    def _plan(self, odom: OdomPose, stamp: float, yaw: float) -> None:
         started = time.perf_counter()
         planned = False
         timeout = self.cfg["world_timeout"]
@@ -194,10 +194,10 @@ class PlannerNode(Node):
             self.get_logger().warn("target or obstacles older than world_timeout: stopping",
                                    throttle_duration_sec=2.0)
         else:
-            out = self.core.step(stamp, x, y, yaw, speed, self._target[1], self._obstacles_at(stamp))
+            out = self.core.step(stamp, odom.x, odom.y, yaw, odom.velocity, self._target[1], self._obstacles_at(stamp))
             planned = True
         self._last_plan = (stamp, out)
-        self._publish(odom, out, x, y, time.perf_counter() - started if planned else 0.0)
+        self._publish(odom, out, time.perf_counter() - started if planned else 0.0)
 
     def _obstacles_at(self, stamp: float) -> Obstacles:
         """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
@@ -206,34 +206,35 @@ class PlannerNode(Node):
         return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius,
                               o.velocity.x, o.velocity.y) for o in msg.obstacles])
 
-    def _publish(self, odom: Odometry, out: PlannerOutput, x: float, y: float, planning_time: float = 0.0) -> None:
+    def _publish(self, odom: OdomPose, out: PlannerOutput, planning_time: float = 0.0) -> None:
         twist = Twist()
         twist.linear.x, twist.angular.z = out.velocity_cmd, out.yaw_rate_cmd
         if self.stamped:
             cmd = TwistStamped(twist=twist)
-            cmd.header.stamp = odom.header.stamp
+            cmd.header.stamp = odom.stamp
             cmd.header.frame_id = odom.child_frame_id or "base_link"
             self.pub_cmd.publish(cmd)
         else:
             self.pub_cmd.publish(twist)
-        self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision, planning_time))
-        # Markers are for a viewer or a recorder: built only while one listens (CPU the controller beside
-        # the planner can use).
+        # State and markers are for a viewer, a recorder or a lockstep simulator: built only while one
+        # listens (CPU the controller beside the planner can use; volatile, so one joining loses nothing).
+        if self.pub_state.get_subscription_count():
+            self.pub_state.publish(planner_state_message(out, odom, self.cfg, self.parameter_revision, planning_time))
         if self._marker_due.due(out.stamp) and self.pub_markers.get_subscription_count():
-            self.pub_markers.publish(force_markers(out, odom, x, y))
+            self.pub_markers.publish(force_markers(out, odom))
 
 
 def _vector(v: np.ndarray) -> Vector3:
     return Vector3(x=float(v[0]), y=float(v[1]), z=0.0)
 
 
-def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, parameter_revision: int = 0,
+def planner_state_message(out: PlannerOutput, odom: OdomPose, cfg: dict, parameter_revision: int = 0,
                           planning_time: float = 0.0) -> PlannerState:
     msg = PlannerState(parameter_revision=parameter_revision, planning_time=float(planning_time))
     for name in ("k_p", "k_v", "k_o", "rho_o", "robot_radius", "min_distance"):
         setattr(msg, name, float(cfg[name]))
-    msg.header.stamp = odom.header.stamp
-    msg.header.frame_id = odom.header.frame_id or "odom"
+    msg.header.stamp = odom.stamp
+    msg.header.frame_id = odom.frame_id or "odom"
     msg.attractive_force = _vector(out.attractive_force)
     msg.repulsive_force = _vector(out.repulsive_force)
     msg.total_force = _vector(out.total_force)
@@ -255,13 +256,13 @@ def planner_state_message(out: PlannerOutput, odom: Odometry, cfg: dict, paramet
     return msg
 
 
-def force_markers(out: PlannerOutput, odom: Odometry, x: float, y: float) -> MarkerArray:
-    frame = odom.header.frame_id or "odom"
+def force_markers(out: PlannerOutput, odom: OdomPose) -> MarkerArray:
+    frame, x, y = odom.frame_id or "odom", odom.x, odom.y
     markers = MarkerArray()
     for mid, (name, force) in enumerate((("attractive", out.attractive_force), ("repulsive", out.repulsive_force),
                                          ("total", out.total_force))):
         end = (x + FORCE_SCALE * force[0], y + FORCE_SCALE * force[1], 0.6)
-        markers.markers.append(arrow(odom.header.stamp, frame, "twbr_planner_forces", mid, (x, y, 0.6), end,
+        markers.markers.append(arrow(odom.stamp, frame, "twbr_planner_forces", mid, (x, y, 0.6), end,
                                      FORCE_COLORS[name]))
     return markers
 
