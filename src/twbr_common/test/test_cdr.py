@@ -1,10 +1,13 @@
 import struct
+from pathlib import Path
 
+import numpy as np
 import pytest
+from ament_index_python.packages import get_package_share_directory
 from builtin_interfaces.msg import Time
 from nav_msgs.msg import Odometry
 from rclpy.serialization import serialize_message
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from sensor_msgs.msg import Imu
 
 from twbr_common import cdr
@@ -12,12 +15,15 @@ from twbr_common.cdr import (
     header_stamp_seconds,
     imu_fields,
     imu_fields_of,
+    obstacle_rows,
+    obstacle_rows_of,
     odom_pose,
     odom_pose_of,
     odom_twist,
     odom_twist_of,
 )
 from twbr_common.ros_io import stamp_seconds
+from twbr_msgs.msg import Obstacle, ObstacleArray
 
 # frame_id lengths from empty to past a double's alignment, so every padding case is read
 FRAMES = ["", "o", "odom", "odom_frame", "a_much_longer_frame_name_x"]
@@ -113,6 +119,10 @@ def test_imu_fields_read_from_the_bytes_are_the_deserialized_ones(frame, raw):
 def big_endian(msg, typename: str) -> bytes:
     """The message as a big-endian CDR writer (another vendor, another machine) would send it."""
     store = get_typestore(Stores.ROS2_JAZZY)
+    if typename.startswith("twbr_msgs/"):
+        share = Path(get_package_share_directory("twbr_msgs")) / "msg"
+        for name in ("Obstacle", "ObstacleArray"):
+            store.register(get_types_from_msg((share / f"{name}.msg").read_text(), f"twbr_msgs/msg/{name}"))
     little = serialize_message(msg)
     decoded = store.deserialize_cdr(little, typename)
     big = bytes(store.serialize_cdr(decoded, typename, little_endian=False))
@@ -166,3 +176,48 @@ def test_another_encapsulation_is_left_to_the_deserializer():
     assert odom_twist(pl_cdr) == odom_twist_of(msg)
     assert cdr._plain_odom_pose(pl_cdr) is None
     assert odom_pose(pl_cdr) == odom_pose_of(msg)
+
+
+def obstacle_array(frame: str, count: int) -> ObstacleArray:
+    msg = ObstacleArray()
+    msg.header.stamp = Time(sec=9, nanosec=50_000_000)
+    msg.header.frame_id = frame
+    for i in range(count):
+        o = Obstacle(id=7 * i + 1, radius=0.25 + 0.1 * i)
+        o.position.x, o.position.y, o.position.z = 1.0 + i, -2.0 * i, 0.5  # z: not read
+        o.velocity.x, o.velocity.y, o.velocity.z = 0.1 * i, -0.3, 4.0
+        msg.obstacles.append(o)
+    return msg
+
+
+def assert_same_rows(read, msg: ObstacleArray) -> None:
+    expected = obstacle_rows_of(msg)
+    assert read.stamp == expected.stamp == msg.header.stamp
+    assert read.rows.shape == (len(msg.obstacles), 6)
+    np.testing.assert_array_equal(read.rows, expected.rows)
+
+
+@pytest.mark.parametrize("frame", FRAMES)
+@pytest.mark.parametrize("count", [0, 1, 2, 5])
+def test_obstacle_rows_read_from_the_bytes_are_the_deserialized_ones(frame, count):
+    msg = obstacle_array(frame, count)
+    data = serialize_message(msg)
+    assert cdr._plain_obstacle_rows(data) is not None
+    read = obstacle_rows(data)
+    assert_same_rows(read, msg)
+    if count:
+        assert tuple(read.rows[-1]) == (7 * count - 6, count, -2.0 * (count - 1), 0.1 * (count - 1), -0.3,
+                                        0.25 + 0.1 * (count - 1))
+    assert_same_rows(cdr._plain_obstacle_rows(big_endian(msg, "twbr_msgs/msg/ObstacleArray")), msg)
+
+
+def test_obstacle_bytes_declined_in_place_are_deserialized_and_bad_ones_are_none(monkeypatch):
+    data = serialize_message(obstacle_array("map", 3))
+    for cut in (3, 20, 40, len(data) - 1):
+        assert obstacle_rows(data[:cut]) is None
+    count_at = cdr._align(cdr._HEADER + 8 + 4 + len("map") + 1, 4)
+    lying = data[:count_at] + struct.pack("<I", 10**6) + data[count_at + 4:]  # the sequence's length
+    assert cdr._plain_obstacle_rows(lying) is None
+    assert obstacle_rows(lying) is None
+    monkeypatch.setattr(cdr, "_plain_obstacle_rows", lambda data: None)
+    assert_same_rows(obstacle_rows(data), obstacle_array("map", 3))

@@ -18,10 +18,13 @@ import struct
 from collections.abc import Callable
 from typing import Any, NamedTuple, TypeVar
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
+
+from twbr_msgs.msg import ObstacleArray
 
 T = TypeVar("T")
 _HEADER = 4  # encapsulation id and options
@@ -171,6 +174,53 @@ def odom_pose_of(msg: Odometry) -> OdomPose:
     p, o = msg.pose.pose.position, msg.pose.pose.orientation
     return OdomPose(msg.header.stamp, msg.header.frame_id, msg.child_frame_id, p.x, p.y, (o.x, o.y, o.z, o.w),
                     msg.twist.twist.linear.x)
+
+
+class ObstacleRows(NamedTuple):
+    """A twbr_msgs/ObstacleArray's stamp and one row per obstacle: id, x, y, vx, vy, radius (m, m/s)."""
+
+    stamp: Time
+    rows: np.ndarray
+
+
+# An Obstacle: uint32 id, then (aligned to 8) position (3 doubles), velocity (3), radius.
+_OBSTACLE_DOUBLES = 7
+_OBSTACLE_MIN_SIZE = 4 + 8 * _OBSTACLE_DOUBLES
+
+
+def obstacle_rows(data: bytes) -> ObstacleRows | None:
+    """From a serialized twbr_msgs/ObstacleArray; None if the bytes are not one."""
+    return _read(data, _plain_obstacle_rows, ObstacleArray, obstacle_rows_of)
+
+
+def _plain_obstacle_rows(data: bytes) -> ObstacleRows | None:
+    head = _header(data)
+    if head is None:
+        return None
+    order, stamp, offset = head
+    offset = _align(offset, 4)
+    if offset + 4 > len(data):
+        return None
+    (count,) = _unpack(order, "I", data, offset)
+    offset += 4
+    if count * _OBSTACLE_MIN_SIZE > len(data) - offset:  # a length field no message of these bytes can have
+        return None
+    rows = np.empty((count, 6))
+    for i in range(count):
+        offset = _align(offset, 4)
+        (obstacle_id,) = _unpack(order, "I", data, offset)
+        offset = _align(offset + 4, 8)
+        if offset + 8 * _OBSTACLE_DOUBLES > len(data):
+            return None
+        x, y, _z, vx, vy, _vz, radius = _unpack(order, f"{_OBSTACLE_DOUBLES}d", data, offset)
+        rows[i] = obstacle_id, x, y, vx, vy, radius
+        offset += 8 * _OBSTACLE_DOUBLES
+    return ObstacleRows(stamp, rows)
+
+
+def obstacle_rows_of(msg: ObstacleArray) -> ObstacleRows:
+    rows = [(o.id, o.position.x, o.position.y, o.velocity.x, o.velocity.y, o.radius) for o in msg.obstacles]
+    return ObstacleRows(msg.header.stamp, np.array(rows, dtype=float).reshape(len(rows), 6))
 
 
 class ImuFields(NamedTuple):

@@ -4,11 +4,11 @@ Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward 
 heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
 `rate` in odom stamps, so it runs on sim time and wall time alike; an odom it will not answer is
-dropped before it is read, and one it answers is read in place (twbr_common.cdr: its stamp, frames, pose and
-speed, not a deserialized message). A plan at odom stamp t waits (at most
-world_wait of wall time) for the world of its instant, target and obstacles stamped after
-t - world_period: the world of each planning instant reaches the plan even when a loaded machine delivers
-it after the odom, so a lockstep run is the same on an idle and on a busy machine. Obstacles are moved
+dropped before it is read. Odom, target and obstacles are read in place from their bytes (twbr_common.cdr),
+not deserialized: they arrive together at a planning instant, when the controller computes too. A plan at
+odom stamp t waits (at most world_wait of wall time) for the world of its instant, target and obstacles
+stamped after t - world_period: the world of each planning instant reaches the plan even when a loaded
+machine delivers it after the odom, so a lockstep run is the same on an idle and on a busy machine. Obstacles are moved
 along their velocity to the odom stamp; a target or obstacle list older than world_timeout stops the robot.
 """
 
@@ -24,7 +24,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
-from twbr_common.cdr import OdomPose, header_stamp_seconds, odom_pose
+from twbr_common.cdr import OdomPose, header_stamp_seconds, obstacle_rows, odom_pose
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
@@ -69,8 +69,8 @@ class PlannerNode(Node):
         # instant before its odom: every world sample queued before the odom that triggers planning is
         # taken first, the newest valid one kept. A queue of one would let a bad message that arrives
         # after a good one evict it.
-        self.create_subscription(Odometry, "target", self._on_target, WORLD_QOS)
-        self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles, WORLD_QOS)
+        self.create_subscription(Odometry, "target", self._on_target_bytes, WORLD_QOS, raw=True)
+        self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles_bytes, WORLD_QOS, raw=True)
         self.create_subscription(Odometry, "odom", self._on_odom_bytes, SENSOR_SUB_QOS, raw=True)
         self.graph = GraphWatch(self, ["cmd_vel", "planner_state"])
         self.parameter_revision = 0
@@ -96,31 +96,33 @@ class PlannerNode(Node):
         self._due.restart()
         self._marker_due.restart()
         self._target: tuple[float, Target] | None = None
-        self._obstacles: tuple[float, ObstacleArray] | None = None
+        self._obstacles: tuple[float, np.ndarray] | None = None  # its stamp; rows of id, x, y, vx, vy, radius
         self._last_plan: tuple[float, PlannerOutput] | None = None
         # (odom, its stamp, yaw, wall deadline): a plan due, waiting for its world.
         self._pending: tuple | None = None
         self._overdue.cancel()
 
-    def _on_target(self, msg: Odometry) -> None:
-        o = msg.pose.pose.orientation
-        _, _, heading = rpy_from_quaternion(o.x, o.y, o.z, o.w)
-        speed = msg.twist.twist.linear.x
-        stamp = stamp_seconds(msg.header.stamp)
-        values = (msg.pose.pose.position.x, msg.pose.pose.position.y, heading, speed)
-        if self._admit("target", stamp, values):
-            target = Target(values[0], values[1], speed * math.cos(heading), speed * math.sin(heading))
-            self._target = (stamp, target)
+    def _on_target_bytes(self, data: bytes) -> None:
+        target = odom_pose(data)
+        if target is None:
+            self.inputs.dropped("target", "not a nav_msgs/Odometry")
+            return
+        _, _, heading = rpy_from_quaternion(*target.orientation)
+        stamp, speed = stamp_seconds(target.stamp), target.velocity
+        if self._admit("target", stamp, (target.x, target.y, heading, speed)):
+            self._target = (stamp, Target(target.x, target.y, speed * math.cos(heading), speed * math.sin(heading)))
             self._plan_pending()
 
-    def _on_obstacles(self, msg: ObstacleArray) -> None:
-        stamp = stamp_seconds(msg.header.stamp)
-        numbers = [v for o in msg.obstacles for v in (o.position.x, o.position.y, o.velocity.x, o.velocity.y,
-                                                      o.radius)]
-        if any(o.radius < 0.0 for o in msg.obstacles):
+    def _on_obstacles_bytes(self, data: bytes) -> None:
+        obstacles = obstacle_rows(data)
+        if obstacles is None:
+            self.inputs.dropped("obstacles", "not a twbr_msgs/ObstacleArray")
+            return
+        stamp, rows = stamp_seconds(obstacles.stamp), obstacles.rows
+        if (rows[:, 5] < 0.0).any():
             self.inputs.dropped("obstacles", "negative radius")
-        elif self._admit("obstacles", stamp, numbers):
-            self._obstacles = (stamp, msg)
+        elif self._admit("obstacles", stamp, rows[:, 1:].ravel().tolist()):
+            self._obstacles = (stamp, rows)
             self._plan_pending()
 
     def _on_odom_bytes(self, data: bytes) -> None:
@@ -201,10 +203,12 @@ class PlannerNode(Node):
 
     def _obstacles_at(self, stamp: float) -> Obstacles:
         """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
-        t0, msg = self._obstacles
+        t0, rows = self._obstacles
+        if not len(rows):
+            return Obstacles.empty()
         age = max(0.0, stamp - t0)
-        return Obstacles.of([(o.id, o.position.x + o.velocity.x * age, o.position.y + o.velocity.y * age, o.radius,
-                              o.velocity.x, o.velocity.y) for o in msg.obstacles])
+        velocities = np.ascontiguousarray(rows[:, 3:5])
+        return Obstacles(rows[:, 1:3] + velocities * age, rows[:, 5].copy(), rows[:, 0].astype(int), velocities)
 
     def _publish(self, odom: OdomPose, out: PlannerOutput, planning_time: float = 0.0) -> None:
         twist = Twist()
