@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -250,6 +251,7 @@ BAD_STARTS = [
     (["-p", "fall_pitch:=0.1"], "invalid parameter 'max_pitch_ref' = 0.15", "below fall_pitch"),  # inconsistent
     (["-p", "cpu_affinity:=[4096]"], "invalid parameter 'cpu_affinity' = [4096]", "CPUs this process may use"),
     (["-p", "cpu_affinity:=1"], "invalid parameter 'cpu_affinity' = 1", "a list of integers in [0, inf)"),
+    (["-p", "realtime_priority:=100"], "invalid parameter 'realtime_priority' = 100", "[0, 99]"),
 ]
 
 
@@ -267,6 +269,17 @@ def test_cpu_affinity_pins_every_thread_of_the_node(launch, ros):
     affinities = {tid.name: os.sched_getaffinity(int(tid.name)) for tid in tasks.iterdir()}
     assert len(affinities) > 3  # DDS's threads, started before the parameter was read, are there too
     assert all(cpus == {cpu} for cpus in affinities.values()), affinities
+
+
+@pytest.mark.skipif(os.geteuid() != 0 and resource.getrlimit(resource.RLIMIT_RTPRIO)[0] < 10,
+                    reason="SCHED_FIFO needs root or an rtprio limit of 10 (ulimit -r) here")
+def test_realtime_priority_puts_every_thread_of_the_node_under_fifo(launch, ros):
+    proc = launch("twbr_control", "controller_node", "-p", "realtime_priority:=10", params=("controller.yaml",))
+    assert ros.spin_until(lambda: "realtime priority 10 (SCHED_FIFO)" in proc.output or not proc.running, 30.0), \
+        proc.output
+    tids = [int(tid.name) for tid in Path(f"/proc/{proc.proc.pid}/task").iterdir()]
+    assert len(tids) > 3  # DDS's threads, started before the parameter was read, are there too
+    assert {(os.sched_getscheduler(t), os.sched_getparam(t).sched_priority) for t in tids} == {(os.SCHED_FIFO, 10)}
 
 
 def test_runner_refuses_an_unknown_scenario(tmp_path, ros_domain):

@@ -1,9 +1,16 @@
-"""What every node does to its own process once it is built: the CPUs it runs on, and a frozen heap.
+"""What every node does to its own process once it is built: the CPUs it runs on, its scheduling
+priority, and a frozen heap.
 
 cpu_affinity pins the whole process (the Python thread and every DDS thread) to chosen CPUs, as
 `taskset -c` does and as ros2_control's `cpu_affinity` does for its control thread: on a robot's
 computer, the control loop's processes can then keep CPUs of their own, away from a recorder or a
 planner. A parameter rather than a wrapper, so that it travels in the node's parameter file.
+
+realtime_priority puts every thread under SCHED_FIFO (as `chrt -f` does, and ros2_control's
+`thread_priority` for its control thread): the node then runs as soon as its message is in, ahead of every
+normally scheduled process, instead of waiting for a core a planner or a recorder holds. The kernel's
+realtime throttling (95 % of each second by default) still leaves the rest of the machine a share should it
+spin.
 
 The heap is frozen after start-up (gc.freeze): the objects of imports and compiled kernels are never
 scanned again, so a full collection in the loop walks only what the loop made, instead of stalling a
@@ -24,6 +31,9 @@ from twbr_common.params import ConfigError, ParamSpec
 PROCESS_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("cpu_affinity", [], "CPUs this node's process runs on, every thread included (as `taskset -c`"
               " does), e.g. [1] or [0, 2]; by default every CPU the process may use", low=0, item=int),
+    ParamSpec("realtime_priority", 0, "SCHED_FIFO priority of every thread of this node's process (as `chrt -f`"
+              " does), 1-99: it then runs ahead of every normally scheduled process; 0: the normal scheduler."
+              " Needs CAP_SYS_NICE (root) or an rtprio limit at least as high (`ulimit -r`)", low=0, high=99),
 )
 
 
@@ -61,6 +71,21 @@ def pin_process(cpus: set[int]) -> None:
             os.sched_setaffinity(int(tid), cpus)
 
 
+def prioritise_process(priority: int, name: str = "realtime_priority") -> None:
+    """Every thread of this process under SCHED_FIFO at `priority`; threads started later inherit it."""
+    param = os.sched_param(priority)
+    for tid in os.listdir("/proc/self/task"):
+        try:
+            os.sched_setscheduler(int(tid), os.SCHED_FIFO, param)
+        except ProcessLookupError:  # a thread that ended meanwhile
+            continue
+        except PermissionError:
+            raise ConfigError(
+                f"invalid parameter '{name}' = {priority} (not permitted: this process has neither CAP_SYS_NICE"
+                f" nor an rtprio limit of {priority}, see `ulimit -r`): must be 0 (the normal scheduler) here,"
+                " or the process given the right") from None
+
+
 def settle_process(cfg: Mapping[str, Any], log: Callable[[str], Any]) -> None:
     """Apply the process parameters (PROCESS_SPECS, validated), then freeze the start-up heap."""
     allowed = os.sched_getaffinity(0)
@@ -68,5 +93,8 @@ def settle_process(cfg: Mapping[str, Any], log: Callable[[str], Any]) -> None:
         cpus = check_cpus(cfg["cpu_affinity"], allowed)
         pin_process(cpus)
         log(f"pinned to CPU {','.join(_ranges(sorted(cpus)))}")
+    if cfg["realtime_priority"] > 0:
+        prioritise_process(cfg["realtime_priority"])
+        log(f"realtime priority {cfg['realtime_priority']} (SCHED_FIFO)")
     gc.collect()
     gc.freeze()

@@ -109,7 +109,8 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     """Init, spin until shutdown, and turn a configuration error into one FATAL line and exit code 2.
 
     A node with a `run()` method drives its own loop (the lockstep simulator); others are spun. Every
-    node also takes the process parameters of twbr_common.node_process (cpu_affinity).
+    node also takes the process parameters of twbr_common.node_process (cpu_affinity,
+    realtime_priority).
     """
     argv = argv if argv is not None else sys.argv
     try:
