@@ -62,11 +62,12 @@ def _past_string(data: bytes, order: str, offset: int) -> int | None:
 def _string_at(data: bytes, order: str, offset: int) -> tuple[str, int] | None:
     """The string whose length field is at (or aligned up from) `offset`, and the offset past it; None
     unless it ends in its NUL and is UTF-8 (the deserializer then decides)."""
-    end = _past_string(data, order, offset)
-    if end is None or end - _align(offset, 4) < 5 or data[end - 1] != 0:
+    start = _align(offset, 4)
+    end = _past_string(data, order, start)
+    if end is None or end - start < 5 or data[end - 1] != 0:
         return None
     try:
-        return data[_align(offset, 4) + 4:end - 1].decode(), end
+        return data[start + 4:end - 1].decode(), end
     except UnicodeDecodeError:
         return None
 
@@ -107,8 +108,16 @@ class OdomTwist(NamedTuple):
 
 
 # Odometry after child_frame_id: pose.pose (position 3, orientation 4 doubles), pose.covariance (36),
-# then twist.twist.linear (3) and angular (3).
+# then twist.twist.linear (3) and angular (3), and twist.covariance (36).
 _ODOM_TWIST_OFFSET = 8 * (3 + 4 + 36)
+_ODOM_BODY = _ODOM_TWIST_OFFSET + 8 * (6 + 36)
+
+
+def _odom_pose_offset(data: bytes, child_end: int) -> int | None:
+    """Where an Odometry's pose starts, after child_frame_id (which ends at `child_end`); None unless the whole
+    message is there, as the deserializer insists."""
+    pose = _align(child_end, 8)
+    return pose if pose + _ODOM_BODY <= len(data) else None
 
 
 def odom_twist(data: bytes) -> OdomTwist | None:
@@ -121,13 +130,11 @@ def _plain_odom_twist(data: bytes) -> OdomTwist | None:
     if head is None:
         return None
     order, stamp, offset = head
-    offset = _past_string(data, order, offset)  # child_frame_id
-    if offset is None:
+    child_end = _past_string(data, order, offset)
+    pose = None if child_end is None else _odom_pose_offset(data, child_end)
+    if pose is None:
         return None
-    twist = _align(offset, 8) + _ODOM_TWIST_OFFSET
-    if twist + 8 * (6 + 36) > len(data):  # the whole message, to its twist's covariance
-        return None
-    vx, _vy, _vz, _wx, _wy, wz = _unpack(order, "6d", data, twist)
+    vx, _vy, _vz, _wx, _wy, wz = _unpack(order, "6d", data, pose + _ODOM_TWIST_OFFSET)
     return OdomTwist(stamp, vx, wz)
 
 
@@ -160,10 +167,8 @@ def _plain_odom_pose(data: bytes) -> OdomPose | None:
     order, sec, nanosec = stamp
     frame = _string_at(data, order, _HEADER + 8)
     child = None if frame is None else _string_at(data, order, frame[1])
-    if child is None:
-        return None
-    pose = _align(child[1], 8)
-    if pose + _ODOM_TWIST_OFFSET + 8 * (6 + 36) > len(data):  # the whole message, as the deserializer insists
+    pose = None if child is None else _odom_pose_offset(data, child[1])
+    if pose is None:
         return None
     x, y, _z, qx, qy, qz, qw = _unpack(order, "7d", data, pose)
     (velocity,) = _unpack(order, "d", data, pose + _ODOM_TWIST_OFFSET)

@@ -64,26 +64,28 @@ def _ranges(cpus: list[int]) -> list[str]:
     return [str(first) if first == last else f"{first}-{last}" for first, last in runs]
 
 
-def pin_process(cpus: set[int]) -> None:
-    """Every thread of this process onto `cpus` (sched_setaffinity pins one thread; DDS's already run)."""
+def _each_thread(apply: Callable[[int], Any]) -> None:
+    """`apply` to every thread id of this process: the kernel's calls set one thread, and DDS's already run."""
     for tid in os.listdir("/proc/self/task"):
         with contextlib.suppress(ProcessLookupError):  # a thread that ended meanwhile
-            os.sched_setaffinity(int(tid), cpus)
+            apply(int(tid))
+
+
+def pin_process(cpus: set[int]) -> None:
+    """Every thread of this process onto `cpus`."""
+    _each_thread(lambda tid: os.sched_setaffinity(tid, cpus))
 
 
 def prioritise_process(priority: int, name: str = "realtime_priority") -> None:
     """Every thread of this process under SCHED_FIFO at `priority`; threads started later inherit it."""
     param = os.sched_param(priority)
-    for tid in os.listdir("/proc/self/task"):
-        try:
-            os.sched_setscheduler(int(tid), os.SCHED_FIFO, param)
-        except ProcessLookupError:  # a thread that ended meanwhile
-            continue
-        except PermissionError:
-            raise ConfigError(
-                f"invalid parameter '{name}' = {priority} (not permitted: this process has neither CAP_SYS_NICE"
-                f" nor an rtprio limit of {priority}, see `ulimit -r`): must be 0 (the normal scheduler) here,"
-                " or the process given the right") from None
+    try:
+        _each_thread(lambda tid: os.sched_setscheduler(tid, os.SCHED_FIFO, param))
+    except PermissionError:
+        raise ConfigError(
+            f"invalid parameter '{name}' = {priority} (not permitted: this process has neither CAP_SYS_NICE"
+            f" nor an rtprio limit of {priority}, see `ulimit -r`): must be 0 (the normal scheduler) here,"
+            " or the process given the right") from None
 
 
 def settle_process(cfg: Mapping[str, Any], log: Callable[[str], Any]) -> None:

@@ -8,8 +8,9 @@ dropped before it is read. Odom, target and obstacles are read in place from the
 not deserialized: they arrive together at a planning instant, when the controller computes too. A plan at
 odom stamp t waits (at most world_wait of wall time) for the world of its instant, target and obstacles
 stamped after t - world_period: the world of each planning instant reaches the plan even when a loaded
-machine delivers it after the odom, so a lockstep run is the same on an idle and on a busy machine. Obstacles are moved
-along their velocity to the odom stamp; a target or obstacle list older than world_timeout stops the robot.
+machine delivers it after the odom, so a lockstep run is the same on an idle and on a busy machine.
+Obstacles are moved along their velocity to the odom stamp; a target or obstacle list older than
+world_timeout stops the robot.
 """
 
 from __future__ import annotations
