@@ -1,7 +1,10 @@
 """A robot driver that is not sim_node, for the conformance and drop-in tests: wall-clock stepping of the
 dynamics core at 200 Hz, stamped with the node's clock, with one deliberate fault if asked.
 
-    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped]
+    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped] [--burst N]
+
+--burst N publishes the samples in groups of N, each stamped at its own instant (a driver whose bus
+delivers several samples at once): a correct driver, whose rate the checker must still measure.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped")
 
 
 class FakeDriver(Node):
-    def __init__(self, fault: str) -> None:
+    def __init__(self, fault: str, burst: int = 1) -> None:
         super().__init__("fake_driver")
         self.fault = fault
         cfg = defaults(SIM_SPECS)
@@ -42,6 +45,7 @@ class FakeDriver(Node):
         # loaded host made late are published late, not skipped (an rclpy timer skips missed periods).
         self._period_ns = round(1e9 / cfg["publish_rate"])
         self._next_ns: int | None = None
+        self._burst = burst
         self.create_timer(1.0 / cfg["publish_rate"], self._tick)
 
     def _on_command(self, msg: WheelTorques) -> None:
@@ -51,9 +55,10 @@ class FakeDriver(Node):
         now = self.get_clock().now().nanoseconds
         if self._next_ns is None:
             self._next_ns = now
-        while self._next_ns <= now:
-            self._sample(self._next_ns)
-            self._next_ns += self._period_ns
+        while self._next_ns + (self._burst - 1) * self._period_ns <= now:
+            for _ in range(self._burst):
+                self._sample(self._next_ns)
+                self._next_ns += self._period_ns
 
     def _sample(self, stamp_ns: int) -> None:
         self.sim.advance(self.sim.steps_per_publish)
@@ -91,9 +96,10 @@ class FakeDriver(Node):
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--fault", choices=FAULTS, default="none")
+    ap.add_argument("--burst", type=int, default=1, help="samples published at once (each at its own stamp)")
     args = ap.parse_args(remove_ros_args(sys.argv)[1:])
     rclpy.init(args=sys.argv)
-    node = FakeDriver(args.fault)
+    node = FakeDriver(args.fault, args.burst)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):

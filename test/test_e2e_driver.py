@@ -23,8 +23,9 @@ def check_driver(env: dict[str, str], *args: str) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=120)
 
 
-def fake_driver(env: dict[str, str], tmp_path: Path, fault: str) -> NodeProcess:
-    return NodeProcess([sys.executable, str(FAKE_DRIVER), "--fault", fault], env, tmp_path, f"fake-{fault}")
+def fake_driver(env: dict[str, str], tmp_path: Path, fault: str, burst: int = 1) -> NodeProcess:
+    return NodeProcess([sys.executable, str(FAKE_DRIVER), "--fault", fault, "--burst", str(burst)], env, tmp_path,
+                       f"fake-{fault}-{burst}")
 
 
 def test_sim_node_passes_every_check(launch, ros_env):
@@ -63,6 +64,22 @@ def test_broken_drivers_fail_the_check_that_names_their_fault(ros_env, tmp_path,
         driver.stop()
     assert done.returncode == 1, done.stdout + done.stderr + driver.output
     assert expected in done.stdout
+
+
+def test_a_driver_that_publishes_in_bursts_keeps_its_rate(ros_env, tmp_path):
+    """20 samples at once every 100 ms (a bus that delivers them together, or a host that held the driver
+    back): every sample reaches the checker, whose rate is the driver's 200 Hz. (CI once failed the
+    well-behaved driver at 154 Hz: the checker's 5-deep queue dropped the late samples published at once.)
+    Its commands act up to 100 ms late, so the torque pulse is made longer than that."""
+    driver = fake_driver(ros_env, tmp_path, "none", burst=20)
+    try:
+        done = check_driver(ros_env, "--pulse", "0.3")
+    finally:
+        driver.stop()
+    assert done.returncode == 0, done.stdout + done.stderr + driver.output
+    rates = re.findall(r"PASS  (?:odom|imu|joint_states) rate: ([0-9.]+) Hz", done.stdout)
+    assert len(rates) == 3, done.stdout + done.stderr + driver.output
+    assert all(abs(float(r) - 200.0) <= 10.0 for r in rates), done.stdout
 
 
 def test_another_driver_passes_and_world_node_drives_it_to_a_target(launch, ros, ros_env, tmp_path):

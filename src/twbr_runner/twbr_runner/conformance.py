@@ -59,14 +59,18 @@ def check_stamps(topic: str, stamps: Sequence[float]) -> Check:
 
 
 def check_rate(topic: str, stamps: Sequence[float], expected: float, tolerance: float) -> Check:
-    """The publication rate in the driver's own time (its stamps: sim time or wall time alike)."""
+    """The publication rate in the driver's own time (its stamps: sim time or wall time alike): samples
+    received per second of stamps, so a driver that skips samples fails as one that runs slow does. Gaps
+    of more than 1.5 periods are counted in the detail: they tell skipped samples from a slow clock."""
     name = f"{topic} rate"
     distinct = sorted(set(stamps))
     if len(distinct) < 3:
         return Check(name, False, "too few distinct stamps to measure a rate")
     rate = (len(distinct) - 1) / (distinct[-1] - distinct[0])
     ok = abs(rate - expected) <= tolerance * expected
-    return Check(name, ok, f"{rate:.1f} Hz (expected {expected:g} Hz ± {tolerance:.0%})")
+    gaps = sum(1 for a, b in itertools.pairwise(distinct) if (b - a) * expected > 1.5)
+    detail = f"{rate:.1f} Hz (expected {expected:g} Hz ± {tolerance:.0%})"
+    return Check(name, ok, detail + (f"; {gaps} gap(s) longer than 1.5 periods" if gaps else ""))
 
 
 def check_frames(odom_frames: set[tuple[str, str]], imu_frames: set[str], joint_names: set[tuple[str, ...]]) -> Check:
