@@ -144,7 +144,8 @@ def test_a_stopped_runner_stops_every_process_and_keeps_a_readable_bag(tmp_path,
         time.sleep(0.2)
     run = only_run_dir(tmp_path)
     time.sleep(5.0)  # mid-run: the scenario is 90 s of sim time
-    assert proc.poll() is None
+    if proc.poll() is not None:
+        pytest.fail(f"the runner ended by itself ({proc.returncode}) before it was stopped:\n{proc.communicate()[0]}")
     proc.send_signal(signum)
     out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signum, out
