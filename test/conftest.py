@@ -92,3 +92,17 @@ def assert_refused_at_start(proc: NodeProcess, *expected: str) -> None:
     for piece in expected:
         assert piece in fatal[0], (piece, fatal[0])
     assert "Traceback" not in proc.output
+
+
+def recorded_file(where: Path, pattern: str, over_bytes: int, timeout: float,
+                  running: Callable[[], bool] = lambda: True) -> Path | None:
+    """The first bag file under `where` matching `pattern` with more than `over_bytes` on disk: the recorder
+    flushes its chunks as the run goes, so the run is driving, not just started (a loaded machine may take
+    seconds to bring a graph up: a fixed sleep is not enough). None after `timeout` s or once not running()."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and running():
+        for f in where.glob(pattern):
+            if f.stat().st_size > over_bytes:
+                return f
+        time.sleep(0.1)
+    return None

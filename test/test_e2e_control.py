@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 import pytest
-from conftest import CONFIG, assert_refused_at_start
+from conftest import CONFIG, assert_refused_at_start, recorded_file
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
@@ -145,12 +145,10 @@ def test_a_stopped_runner_stops_every_process_and_keeps_a_readable_bag(tmp_path,
     run = only_run_dir(tmp_path)
     # Mid-run: the recorder has written a few seconds of sim time (~0.4 MB each), out of the 70 s this
     # scenario takes to reach its target; a fixed wall-clock wait assumed a machine's speed.
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and proc.poll() is None and recorded_bytes(run / "bag") < 2_000_000:
-        time.sleep(0.1)
+    mcap = recorded_file(run / "bag", "*.mcap", 2_000_000, 60, running=lambda: proc.poll() is None)
     if proc.poll() is not None:
         pytest.fail(f"the runner ended by itself ({proc.returncode}) before it was stopped:\n{proc.communicate()[0]}")
-    assert recorded_bytes(run / "bag") >= 2_000_000, "the recorder wrote under 2 MB to disk in 60 s"
+    assert mcap is not None, "the recorder wrote under 2 MB to disk in 60 s"
     proc.send_signal(signum)
     out, _ = proc.communicate(timeout=60)
     assert proc.returncode == 128 + signum, out
@@ -161,10 +159,6 @@ def test_a_stopped_runner_stops_every_process_and_keeps_a_readable_bag(tmp_path,
     info = bag_info(run / "bag")  # closed cleanly: metadata written
     assert info["message_count"] > 0
     assert read_messages(run / "bag", ["/odom"])["/odom"]
-
-
-def recorded_bytes(bag: Path) -> int:
-    return sum(f.stat().st_size for f in bag.glob("*.mcap"))
 
 
 class ControllerHarness:

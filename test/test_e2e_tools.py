@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import recorded_file
 
 from twbr_runner.bag_reader import BagError, bag_info, read_messages
 from twbr_runner.spawn import NodeProcess, node_executable
@@ -39,12 +40,7 @@ def test_a_runner_killed_with_sigkill_leaves_no_node_behind_and_a_closed_bag(tmp
                                "--quiet", "--no-figures"], env=ros_env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
     try:
-        # Driving, not just started: the recorder has flushed its first chunks (a loaded machine may take
-        # seconds to bring the graph up, so a fixed sleep is not enough).
-        deadline = time.monotonic() + 90
-        while time.monotonic() < deadline and not any(
-                f.stat().st_size > 2_000_000 for f in tmp_path.glob("*/bag/*.mcap")):
-            time.sleep(0.1)
+        recorded_file(tmp_path, "*/bag/*.mcap", 2_000_000, 90)  # driving, not just started
         nodes = _children(runner.pid)
     finally:
         runner.kill()  # also when the wait above fails: its nodes go with it
@@ -67,14 +63,7 @@ def test_a_recorder_killed_with_sigkill_leaves_a_bag_that_recover_bag_makes_read
     try:
         launch("twbr_sim", "sim_node", "-p", "mode:=realtime", "-p", "wait_for_subscribers:=1",
                params=("robot.yaml", "sim.yaml"))
-        deadline = time.monotonic() + 60
-        mcap = None
-        while time.monotonic() < deadline:
-            found = list(bag.glob("*.mcap"))
-            if found and found[0].stat().st_size > 3_000_000:  # a few chunks on disk
-                mcap = found[0]
-                break
-            time.sleep(0.2)
+        mcap = recorded_file(bag, "*.mcap", 3_000_000, 60)  # a few chunks on disk
         assert mcap is not None, recorder.output
         os.kill(recorder.proc.pid, signal.SIGKILL)
         recorder.wait(timeout=5)
