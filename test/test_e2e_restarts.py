@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_msgs.msg import ControllerState, PlannerState, WorldStatus
@@ -100,3 +101,100 @@ def test_the_same_run_on_an_idle_and_on_a_loaded_machine_gives_the_same_path(tmp
     assert m[0]["lockstep_timeouts"] == 0
     print(f"idle: real-time factor {m[0]['real_time_factor']:.2f}, loaded: {m[1]['real_time_factor']:.2f};"
           f" {len(common)} states compared, largest gap {gap.max():.1e} m")
+
+
+def _stopped_at(output: str) -> float:
+    """The sim time sim_node says it stopped at ("stopped at t = 12.345 s ...")."""
+    import re
+
+    found = re.findall(r"stopped at t = ([0-9.]+) s", output)
+    assert found, output[-2000:]
+    return float(found[-1])
+
+
+def _runs(odoms: list[tuple[float, float, float]]) -> list[dict[float, tuple[float, float]]]:
+    """Odom samples (t, x, y) split into runs where the stamps go back (a new simulator)."""
+    runs: list[dict[float, tuple[float, float]]] = []
+    last = None
+    for t, x, y in odoms:
+        if last is None or t < last - 1e-9:
+            runs.append({})
+        runs[-1][round(t, 6)] = (x, y)
+        last = t
+    return runs
+
+
+def test_by_hand_graph_restarted_never_waits_and_repeats_its_path(launch, ros):
+    """README's by-hand graph: controller and planner by hand, then a lockstep sim_node with
+    lockstep_planner_rate and no wait_for_subscribers, three times over (at once, ~1 s and ~6 s after the
+    last run ended), then once more started the other way round (simulator first). Before: a new simulator's single /clock = 0 could reach the nodes before their
+    subscriptions matched, and it held t = 0 for good (the nodes, on the old run's clock, took stamp 0 for
+    "no stamp"); and the first plan went out with or without its world depending on discovery, so the
+    same scenario ended 50 ms apart from one run to the next."""
+    odoms: list[tuple[float, float, float]] = []
+    ros.node.create_subscription(
+        Odometry, "odom", lambda m: odoms.append((_t(m), m.pose.pose.position.x, m.pose.pose.position.y)), RELIABLE)
+    controller = launch("twbr_control", "controller_node", params=("controller.yaml",))
+    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    # the scenario's own duration applies (sim.yaml says -1): no -p duration
+    sim_args = ("-p", f"scenario:={COURSE}", "-p", "lockstep_planner_rate:=20.0")
+    ends = []
+
+    def run_to_the_end(sim) -> None:
+        assert ros.spin_until(lambda: not sim.running, 90.0), \
+            f"the simulator never ended:\n{sim.output[-3000:]}\nplanner:\n{planner.output[-1500:]}"
+        assert sim.wait(timeout=1) == 0, sim.output
+        ends.append(_stopped_at(sim.output))
+        assert "lockstep timeout at" not in sim.output, sim.output[-2000:]
+
+    for pause in (0.0, 1.0, 6.0):
+        ros.spin_for(pause)
+        run_to_the_end(launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS))
+    old_nodes = controller.output, planner.output
+    controller.stop()
+    planner.stop()
+    # The other order: the simulator first, holding t = 0, and the planner's world subscription matching
+    # only later (before: the first plan went out without a target, and the run ended 50 ms later).
+    sim = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
+    ros.spin_for(1.5)
+    launch("twbr_control", "controller_node", params=("controller.yaml",))
+    planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    run_to_the_end(sim)
+    ros.spin_for(0.5)
+    assert ends[0] < 40.0 and len(set(ends)) == 1, ends  # on the target, not at the 40 s limit; all alike
+    runs = _runs(odoms)
+    assert len(runs) == 4, [len(r) for r in runs]
+    first = runs[0]
+    for other in runs[1:]:
+        common = sorted(set(first) & set(other))
+        assert len(common) >= 0.99 * min(len(first), len(other)), (len(common), len(first), len(other))
+        gap = max(np.hypot(first[t][0] - other[t][0], first[t][1] - other[t][1]) for t in common)
+        assert gap <= 1e-9, gap
+    assert all(out.count("clock jumped back") >= 2 for out in old_nodes)
+    print(f"four by-hand runs ended at t = {ends} s, the same path to the bit")
+
+
+def test_a_fall_in_one_run_is_forgotten_by_the_next(launch, ros):
+    """Realtime: the controller frozen (SIGSTOP) for 2 s lets the robot fall and latches `fallen`; a restarted
+    simulator's upright robot must then drive, not stand still on the old run's fall."""
+    states: list[ControllerState] = []
+    ros.node.create_subscription(ControllerState, "controller_state", states.append, RELIABLE)
+    controller = launch("twbr_control", "controller_node", params=("controller.yaml",))
+    launch("twbr_planner", "planner_node", params=("planner.yaml",))
+    sim_args = ("-p", f"scenario:={COURSE}", "-p", "mode:=realtime", "-p", "wait_for_subscribers:=2",
+                "-p", "duration:=0.0")
+    first = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
+    assert ros.spin_until(lambda: states and _t(states[-1]) > 2.0 and states[-1].velocity_ref > 0.1, 30.0), \
+        first.output
+    os.killpg(controller.proc.pid, signal.SIGSTOP)
+    ros.spin_for(2.0)
+    os.killpg(controller.proc.pid, signal.SIGCONT)
+    assert ros.spin_until(lambda: states and states[-1].fallen, 10.0), controller.output
+    first.stop()
+    before = len(states)
+    second = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
+    assert ros.spin_until(lambda: len(states) > before and _t(states[-1]) > 4.0, 30.0), second.output
+    new_run = [s for s in states[before:] if _t(s) < 10.0]
+    assert new_run and not any(s.fallen for s in new_run), [(round(_t(s), 3), s.fallen) for s in new_run[:5]]
+    assert max(s.velocity for s in new_run) > 0.1  # it drives towards the target
+    assert "old run's fall forgotten" in controller.output

@@ -63,6 +63,21 @@ def test_fall_cuts_torque_until_reenabled():
     assert not out.fallen and out.left_torque > 0
 
 
+def test_a_new_run_forgets_the_old_runs_fall_but_not_a_disable():
+    """A restarted simulator's upright robot must not stand still on the old run's fall (issue 34)."""
+    c = make(fall_pitch=0.5)
+    assert c.compute(40.0, 0.3, 0.0, 0.0, 0.0, 0.6, 0.0).fallen
+    c.reset()  # a plain reset (loops only) keeps the latch
+    assert c.compute(40.0 + DT, 0.3, 0.0, 0.0, 0.0, 0.01, 0.0).fallen
+    c.new_run()
+    out = c.compute(0.0, 0.3, 0.0, 0.0, 0.0, 0.01, 0.0)
+    assert not out.fallen and out.enabled and abs(out.left_torque) > 0.0
+    c.set_enabled(False)
+    c.new_run()
+    out = c.compute(DT, 0.3, 0.0, 0.0, 0.0, 0.01, 0.0)
+    assert not out.enabled and out.left_torque == 0.0  # disabled by the user stays disabled
+
+
 def test_disabled_means_zero_torque_and_fresh_loops_on_enable():
     c = make()
     for k in range(50):

@@ -411,6 +411,12 @@ class CascadeController:
     def reset(self) -> None:
         cascade_reset(self.k)
 
+    def new_run(self) -> None:
+        """A new run (the clock went back: a restarted simulator, a replayed bag): the loops restart and a
+        fall seen in the old run is forgotten, as the robot of the new run is upright. Enabled stays as it was."""
+        self.k[K_FALLEN] = 0.0
+        self.reset()
+
     def set_enabled(self, enabled: bool) -> None:
         """Enabling clears a fall (the user stood the robot up); either way the loops restart from zero."""
         self.k[K_ENABLED] = 1.0 if enabled else 0.0

@@ -50,7 +50,6 @@ class ControllerNode(Node):
         self.inputs.add("cmd_vel", cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
         self.inputs.on_restart(self._restart)
         self._restart()
-        self._reported_fall = False
 
         self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
         self.pub_state = self.create_publisher(ControllerState, "controller_state", SENSOR_PUB_QOS)
@@ -78,9 +77,11 @@ class ControllerNode(Node):
     def _restart(self) -> None:
         """Nothing from before a clock jump back (a restarted simulator, a replayed bag) survives it."""
         if self.inputs.restarts:
-            self.get_logger().warning("clock jumped back: controller, state pairing and cmd_vel restarted")
+            was = " (the old run's fall forgotten)" if self.controller.fallen else ""
+            self.get_logger().warning(f"clock jumped back: controller, state pairing and cmd_vel restarted{was}")
         self.sync.reset()
-        self.controller.reset()
+        self.controller.new_run()
+        self._reported_fall = False
         self.estimator.reset()
         self._velocity = 0.0  # the last admitted odom's speed, for the estimator [m/s]
         self._estimated = False

@@ -4,7 +4,8 @@ Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward 
 heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
 `rate` in odom stamps, so it runs on sim time and wall time alike; an odom it will not answer is
-dropped before it is read. Odom, target and obstacles are read in place from their bytes (twbr_common.cdr),
+dropped before it is read. No plan goes out before the first target and obstacle list (a run's first
+state is answered the same however long discovery took). Odom, target and obstacles are read in place from their bytes (twbr_common.cdr),
 not deserialized: they arrive together at a planning instant, when the controller computes too. A plan at
 odom stamp t waits (at most world_wait of wall time) for the world of its instant, target and obstacles
 stamped after t - world_period: the world of each planning instant reaches the plan even when a loaded
@@ -167,8 +168,15 @@ class PlannerNode(Node):
         since = stamp - self.cfg["world_period"] + 1e-9
         return all(sample is not None and sample[0] > since for sample in (self._target, self._obstacles))
 
+    @property
+    def _has_world(self) -> bool:
+        """A target and an obstacle list have come in since the node's (re)start."""
+        return self._target is not None and self._obstacles is not None
+
     def _plan_pending(self, force: bool = False) -> None:
-        if self._pending is None:
+        if self._pending is None or not self._has_world:
+            # The first plan waits for its world however long discovery takes: answered without it, the
+            # first state's plan (and so the whole run) would depend on which subscription matched first.
             return
         odom, stamp, yaw, deadline = self._pending
         if not (force or self._world_current(stamp) or time.monotonic() >= deadline):
@@ -179,7 +187,12 @@ class PlannerNode(Node):
 
     def _plan_overdue(self) -> None:
         self._overdue.cancel()  # one shot: armed again by the next plan that waits
-        if self._pending is not None:
+        if self._pending is not None and not self._has_world:
+            missing = " and ".join(n for n, v in (("target", self._target), ("obstacles", self._obstacles)) if v is None)
+            self.get_logger().warning(
+                f"no {missing} yet: the first plan waits for them (is a simulator hosting the world, or"
+                " world_node, running on this ROS_DOMAIN_ID?)", throttle_duration_sec=5.0)
+        elif self._pending is not None:
             self.get_logger().warning(
                 f"no target/obstacles of t = {self._pending[1]:.3f} s within world_wait ="
                 f" {self.cfg['world_wait']:g} s: planning with the last ones", throttle_duration_sec=2.0)

@@ -119,7 +119,7 @@ class SimNode(Node):
         self.get_logger().info(
             f"{cfg['mode']} {self.ENGINE} simulation at {cfg['physics_rate']:g} Hz, state every"
             f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
-            f" seed {seed}"
+            f" seed {seed}, {f'for {self.duration:g} s' if self.duration > 0.0 else 'until stopped'}"
         )
 
     def robot_parameters(self, cfg: dict) -> dict:
@@ -197,13 +197,15 @@ class SimNode(Node):
         """What the controller and the planner act on, first, so their answers are not held up: the clock,
         the world when due (before odom, so a planner triggered by odom has the world of the same
         instant), then odom and imu back to back (the controller computes once it has both). `again`
-        offers the same state once more: odom and imu only."""
+        offers the same state once more (held at t = 0), with its clock and world: a node that missed
+        them (its subscription matched after they went out, e.g. a simulator restarted beside running
+        nodes whose clock still reads the old run's end) learns of the new run from the next offer,
+        however long discovery takes."""
         now_ns, clock_due, world = self._prepared
         self._published_at = time.perf_counter()
-        if not again:
-            if clock_due:
-                self.pub_clock.publish(self._clock_msg)
-            publish_each(world)
+        if clock_due or again:
+            self.pub_clock.publish(self._clock_msg)
+        publish_each(world)
         self.pub_odom.publish(self._odom_msg)
         self.pub_imu.publish(self._imu_msg)
         if self.pub_truth is not None and not again:
@@ -345,8 +347,17 @@ class SimNode(Node):
         return out
 
     # --- stepping -----------------------------------------------------------------------------
-    def _finished(self) -> bool:
+    @property
+    def duration(self) -> float:
+        """The run's length [s]: the parameter, or the scenario's own when the parameter is negative (so a
+        by-hand `-p scenario:=...` ends as the runner's run of it does); 0: until stopped."""
         duration = self.cfg["duration"]
+        if duration < 0.0:
+            return self.sim.scenario.duration if self.sim.scenario is not None else 0.0
+        return duration
+
+    def _finished(self) -> bool:
+        duration = self.duration
         return (duration > 0.0 and self.sim.time >= duration - 1e-12) or self._target_reached_end
 
     @property
