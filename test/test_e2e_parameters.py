@@ -36,6 +36,9 @@ def _file(tmp_path: Path, name: str, text: str) -> str:
     ("yaml_syntax", ("not valid YAML at line 4",)),
     ("missing_file", ("cannot read params file", "No such file")),
     ("override_typo", ("unknown parameter 'pitch.kpp' (-p pitch.kpp:=...)", "did you mean 'pitch.kp'")),
+    # rclpy's own: before, a 33-line traceback from inside Node() and exit 1
+    ("use_sim_time_string", ("invalid parameter 'use_sim_time' = 'yes'", "must be true or false")),
+    ("use_sim_time_integer", ("invalid parameter 'use_sim_time' = 1 (-p use_sim_time:=...)", "must be true or false")),
 ])
 def test_params_file_mistakes_stop_the_node_with_one_line_naming_them(launch, tmp_path, case, expected):
     # Before: rclpy ignored every one of them silently (the node ran on its defaults), and a missing file or
@@ -45,11 +48,14 @@ def test_params_file_mistakes_stop_the_node_with_one_line_naming_them(launch, tm
         "section": CONTROLLER_YAML.replace("/**/controller_node:", "contoller_node:"),
         "no_ros_parameters": "controller_node:\n  rate: 100.0\n",
         "yaml_syntax": "controller_node:\n  ros__parameters:\n    rate: [100.0\n",
+        "use_sim_time_string": CONTROLLER_YAML.replace("use_sim_time: true", 'use_sim_time: "yes"'),
     }
     if case in files:
         args = ("--params-file", _file(tmp_path, f"{case}.yaml", files[case]))
     elif case == "missing_file":
         args = ("--params-file", str(tmp_path / "nowhere.yaml"))
+    elif case == "use_sim_time_integer":
+        args = ("--params-file", str(CONFIG / "controller.yaml"), "-p", "use_sim_time:=1")
     else:
         args = ("--params-file", str(CONFIG / "controller.yaml"), "-p", "pitch.kpp:=40.0")
     assert_refused_at_start(launch("twbr_control", "controller_node", *args), *expected)

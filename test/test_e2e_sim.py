@@ -266,3 +266,18 @@ def test_malformed_scenario_file_stops_the_node_naming_the_field(launch, tmp_pat
         assert proc.wait(timeout=30) == 2
         assert "'obstacles[0].radius' = -1.5: must be (0, 1000] m" in proc.stderr
         assert "Traceback" not in proc.output
+
+
+def test_a_by_hand_scenario_ends_at_its_own_duration(launch, tmp_path):
+    """`sim_node -p scenario:=<path>` with sim.yaml's parameters: the scenario's duration applies (before:
+    sim.yaml's duration 0 won and the node ran forever); an explicit -p duration still wins."""
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("name: short\ndescription: the robot alone for 1.5 s\nduration: 1.5\nseed: 1\n"
+                        "robot: {x: 0.0, y: 0.0, yaw: 0.0}\nobstacles: []\n")
+    alone = ("-p", f"scenario:={scenario}", "-p", "mode:=realtime", "-p", "real_time_factor:=5.0")  # no controller
+    own = launch("twbr_sim", "sim_node", *alone, params=("robot.yaml", "sim.yaml"))
+    assert own.wait(timeout=60) == 0, own.output
+    assert "stopped at t = 1.500 s" in own.output, own.output[-1500:]
+    explicit = launch("twbr_sim", "sim_node", *alone, "-p", "duration:=0.5", params=("robot.yaml", "sim.yaml"))
+    assert explicit.wait(timeout=60) == 0, explicit.output
+    assert "stopped at t = 0.500 s" in explicit.output, explicit.output[-1500:]

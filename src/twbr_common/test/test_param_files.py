@@ -71,3 +71,27 @@ def test_overrides_for_another_node_are_left_to_it():
     argv = ["x", "--ros-args", "-p", "planner_node:k_o:=3.0", "-p", "rate:=100.0", "--", "--not-ros", "-p"]
     assert parameter_overrides(argv) == [("planner_node", "k_o"), (None, "rate")]
     check_overrides(argv, "controller_node", "/", DECLARED)
+
+
+@pytest.mark.parametrize("text, args, shown", [
+    ('n:\n  ros__parameters:\n    use_sim_time: "yes"\n', [], "'yes'"),
+    ("n:\n  ros__parameters:\n    use_sim_time: 1\n", [], "1"),
+    ("", ["-p", "use_sim_time:=1"], "1"),
+    ("", ["-p", "use_sim_time:=maybe"], "'maybe'"),
+    ("", ["-p", "start_type_description_service:=2.5"], "2.5"),
+])
+def test_rclpys_own_parameters_of_the_wrong_type_are_one_line(tmp_path, text, args, shown):
+    """rclpy refuses these inside Node() with a 33-line traceback: preflight names them first."""
+    argv = ["node", "--ros-args", *args]
+    if text:
+        (tmp_path / "p.yaml").write_text(text)
+        argv += ["--params-file", str(tmp_path / "p.yaml")]
+    with pytest.raises(ConfigError, match=r"invalid parameter '(use_sim_time|start_type_description_service)'"
+                                          rf" = {shown}.*must be true or false") as e:
+        preflight(argv)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("value", ["true", "false", "True", "yes"])
+def test_rclpys_own_parameters_of_the_right_type_pass(value):
+    preflight(["node", "--ros-args", "-p", f"use_sim_time:={value}"])

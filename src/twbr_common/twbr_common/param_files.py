@@ -22,6 +22,9 @@ KNOWN_NODES = ("sim_node", "controller_node", "planner_node", "world_node", "com
                "mujoco_driver", "viewer")
 # Parameters a node may receive without declaring them itself (rclpy's own, and QoS overrides).
 IMPLICIT_PREFIXES = ("qos_overrides.",)
+# Parameters rclpy declares itself, in Node.__init__, before any of ours: a value of the wrong type there
+# ends in rclpy's traceback, so they are checked here first, with the same one-line refusal as ours.
+RCLPY_PARAMETERS = {"use_sim_time": bool, "start_type_description_service": bool}
 
 
 def ros_arguments(argv: Iterable[str]) -> list[str]:
@@ -45,14 +48,43 @@ def params_file_paths(argv: Iterable[str]) -> list[Path]:
 
 def parameter_overrides(argv: Iterable[str]) -> list[tuple[str | None, str]]:
     """(node name or None, parameter name) of each `-p [node:]name:=value`."""
+    return [(node, name) for node, name, _ in parameter_values(argv)]
+
+
+def parameter_values(argv: Iterable[str]) -> list[tuple[str | None, str, Any]]:
+    """(node name or None, parameter name, value) of each `-p [node:]name:=value`, the value read as YAML
+    as rcl reads it (`1` an integer, `true` a boolean, `yes` a boolean, `"yes"` a string)."""
     args = ros_arguments(argv)
     out = []
     for i, a in enumerate(args[:-1]):
         if a in ("-p", "--param"):
-            name = args[i + 1].split(":=", 1)[0]
+            name, _, text = args[i + 1].partition(":=")
             node, _, param = name.rpartition(":")
-            out.append((node or None, param))
+            try:
+                value = yaml.safe_load(text)
+            except yaml.YAMLError:
+                value = text
+            out.append((node or None, param, value))
     return out
+
+
+def check_rclpy_parameters(argv: Iterable[str]) -> None:
+    """rclpy's own parameters (use_sim_time, ...) have the type rclpy declares them with, in every params
+    file and `-p`; rclpy would otherwise refuse them with a traceback from inside Node()."""
+    argv = list(argv)
+
+    def check(name: str, value: Any, where: str) -> None:
+        kind = RCLPY_PARAMETERS.get(name)
+        if kind is not None and not isinstance(value, kind):
+            raise ConfigError(f"invalid parameter '{name}' = {value!r} {where}: must be true or false"
+                              f" (a {kind.__name__}, not a {type(value).__name__}; it is rclpy's own)")
+
+    for path in params_file_paths(argv):
+        for key, params in sections(load_params_file(path), path):
+            for name, value in flatten(params).items():
+                check(name, value, f"in params file {path} (section '{key}')")
+    for _, name, value in parameter_values(argv):
+        check(name, value, f"(-p {name}:=...)")
 
 
 def load_params_file(path: Path) -> dict[str, Any]:
@@ -123,9 +155,12 @@ def flatten(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def preflight(argv: Iterable[str]) -> None:
-    """Every params file exists, reads, parses and has only sections with ros__parameters."""
+    """Every params file exists, reads, parses and has only sections with ros__parameters, and rclpy's own
+    parameters have their type."""
+    argv = list(argv)
     for path in params_file_paths(argv):
         list(sections(load_params_file(path), path))
+    check_rclpy_parameters(argv)
 
 
 def node_parameters(path: Path, node_name: str, namespace: str = "/") -> dict[str, Any]:

@@ -133,6 +133,10 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     except ConfigError as e:
         rclpy.logging.get_logger(name).fatal(f"refusing to start: {e}")
         code = EXIT_CONFIG_ERROR
+    except (InvalidParameterTypeException, InvalidParameterValueException) as e:
+        # rclpy refusing one of its own parameters that preflight does not know of: still one line.
+        rclpy.logging.get_logger(name).fatal(f"refusing to start: invalid parameter: {e}")
+        code = EXIT_CONFIG_ERROR
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -180,3 +180,18 @@ def test_the_papers_navigation_scenarios_pin_the_papers_planner_and_nothing_else
                       "static": {"method": "paper"}, "step": {}, "yaw_step": {}}
     suite = [load_scenario(p) for p in sorted((CONFIG / "suite").glob("*.yaml"))]
     assert suite and all(sc.planner == () for sc in suite)
+
+
+def test_a_directory_given_as_scenario_is_named_a_directory(tmp_path):
+    """`make montecarlo SCENARIO=config/scenarios` said "no such file" of a folder that exists."""
+    from twbr_sim.scenario_files import find_scenario
+
+    (tmp_path / "mine.yaml").write_text("x: 1\n")
+    for value in (str(tmp_path), str(CONFIG), str(tmp_path) + "/"):
+        with pytest.raises(ConfigError, match="is a directory, not a scenario file") as e:
+            find_scenario(value)
+        assert "no such file" not in str(e.value)
+    with pytest.raises(ConfigError, match=r"its scenario files: mine\.yaml"):
+        find_scenario(str(tmp_path))
+    with pytest.raises(ConfigError, match="no such file"):
+        find_scenario(str(tmp_path / "absent.yaml"))

@@ -28,6 +28,10 @@ def suite_names() -> list[str]:
 def find_scenario(value: str) -> Path:
     """A scenario file by path, or by name in the installed scenarios (`static`, `suite/gap_1m`)."""
     path = Path(value)
+    if value and path.is_dir():
+        inside = sorted(p.name for p in path.glob("*.y*ml"))
+        hint = f" (its scenario files: {', '.join(inside[:8])}{', ...' if len(inside) > 8 else ''})" if inside else ""
+        raise ConfigError(f"invalid parameter 'scenario' = {value!r}: is a directory, not a scenario file{hint}")
     if path.suffix in (".yaml", ".yml") or (os.sep in value and path.is_file()):
         if path.is_file():
             return path

@@ -49,8 +49,8 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
               " runner sets it so that its recorder and controller both see t = 0)", "", 0, 1000),
     ParamSpec("command_timeout", 0.1, "a wheel_torque_cmd older than this (sim time) is stale: zero torque", "s",
               0.001, 10.0),
-    ParamSpec("duration", 0.0, "sim time after which the node stops by itself; 0 runs until stopped", "s",
-              0.0, 1e7),
+    ParamSpec("duration", -1.0, "sim time after which the node stops by itself; 0 runs until stopped;"
+              " negative: the scenario's own duration (no scenario: until stopped)", "s", -1.0, 1e7),
     ParamSpec("scenario", "", "scenario file: a path, or a name in share/twbr_config/config/scenarios;"
               " empty: the robot alone at the origin"),
     ParamSpec("host_world", True, "publish the scenario's target and obstacles (false when world_node runs)"),
