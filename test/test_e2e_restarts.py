@@ -127,10 +127,11 @@ def _runs(odoms: list[tuple[float, float, float]]) -> list[dict[float, tuple[flo
 def test_by_hand_graph_restarted_never_waits_and_repeats_its_path(launch, ros):
     """README's by-hand graph: controller and planner by hand, then a lockstep sim_node with
     lockstep_planner_rate and no wait_for_subscribers, three times over (at once, ~1 s and ~6 s after the
-    last run ended), then once more started the other way round (simulator first). Before: a new
-    simulator's single /clock = 0 could reach the nodes before their subscriptions matched, and it held t = 0 for good (the nodes, on the old run's clock, took stamp 0 for
-    "no stamp"); and the first plan went out with or without its world depending on discovery, so the
-    same scenario ended 50 ms apart from one run to the next."""
+    last run ended), then once more started the other way round (simulator first). Before: a new simulator's
+    single /clock = 0 could reach the nodes before their subscriptions matched, and it held t = 0 for good
+    (the nodes, on the old run's clock, took stamp 0 for "no stamp"); and the first plan went out with or
+    without its world depending on discovery, so the same scenario ended 50 ms apart from one run to the
+    next."""
     odoms: list[tuple[float, float, float]] = []
     ros.node.create_subscription(
         Odometry, "odom", lambda m: odoms.append((_t(m), m.pose.pose.position.x, m.pose.pose.position.y)), RELIABLE)

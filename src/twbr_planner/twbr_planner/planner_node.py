@@ -3,13 +3,14 @@
 Subscribes odom (sensor-data QoS), target (nav_msgs/Odometry: pose, and forward speed along its
 heading) and obstacles (twbr_msgs/ObstacleArray); publishes cmd_vel (Twist, or TwistStamped with
 enable_stamped_cmd_vel), planner_state and planner_markers (the three forces as arrows). It plans at
-`rate` in odom stamps, so it runs on sim time and wall time alike; an odom it will not answer is
-dropped before it is read. No plan goes out before the first target and obstacle list (a run's first
-state is answered the same however long discovery took). Odom, target and obstacles are read in place
-from their bytes (twbr_common.cdr), not deserialized: they arrive together at a planning instant, when the controller computes too. A plan at
-odom stamp t waits (at most world_wait of wall time) for the world of its instant, target and obstacles
-stamped after t - world_period: the world of each planning instant reaches the plan even when a loaded
-machine delivers it after the odom, so a lockstep run is the same on an idle and on a busy machine.
+`rate` in odom stamps, so it runs on sim time and wall time alike; an odom it will not answer is dropped
+before it is read. No plan goes out before the first target and obstacle list (a run's first state is
+answered the same however long discovery took). Odom, target and obstacles are read in place from their
+bytes (twbr_common.cdr), not deserialized: they arrive together at a planning instant, when the controller
+computes too. A plan at odom stamp t waits (at most world_wait of wall time) for the world of its instant,
+target and obstacles stamped after t - world_period: the world of each planning instant reaches the plan
+even when a loaded machine delivers it after the odom, so a lockstep run is the same on an idle and on a
+busy machine.
 Obstacles are moved along their velocity to the odom stamp; a target or obstacle list older than
 world_timeout stops the robot.
 """
