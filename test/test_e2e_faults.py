@@ -74,9 +74,13 @@ def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ro
                 garbage.stop()
     wall = time.monotonic() - started
     sent = injected_counts(garbage)
-    assert runner.returncode == 0, out + err
+    # A run beside a foreign publisher on its topics is not its graph's alone: it says so and exits 1.
+    assert runner.returncode == 1, out + err
     (run_dir,) = (tmp_path / "runs").iterdir()
     m = json.loads((run_dir / "metrics.json").read_text())
+    assert any(f.startswith("/fault_injector publishing /odom") for f in m["foreign_publishers"]), m
+    assert "publishers that are not this run's were on its topics" in err and "/fault_injector" in err, err
+    assert m["ended_by"] == "target reached"  # it ran to its end: the injector is reported, not fatal
 
     # Every input of every node in the graph got every kind of garbage while the robot drove.
     topics = ("odom", "imu", "cmd_vel", "wheel_torque_cmd", "target", "obstacles", "planner_state")

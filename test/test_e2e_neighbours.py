@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -73,3 +75,59 @@ def _check_wrong_type_reported(launch, ros, ros_env, tmp_path) -> None:
         assert topics["/cmd_vel"]["message_count"] >= 20  # every Twist (and the planner's, if it planned)
     finally:
         recorder.stop(timeout=10)
+
+
+@pytest.mark.parametrize("apart", [0.0, 0.5])
+def test_two_runners_started_together_never_both_measure_a_mixed_graph(ros_env, tmp_path, apart):
+    """Two runners on one --domain, started together or 0.5 s apart. Before: both ran (real-time factor
+    0.09, 168 lockstep timeouts) and both wrote `reached: false` with no word of the conflict. Now the later
+    one refuses, naming the earlier runner; where discovery is too slow for that, a run that sees the other
+    graph's publishers ends with exit 1 and `foreign_publishers` in its metrics.json."""
+    argv = [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--quiet", "--no-figures"]
+    first = subprocess.Popen([*argv, "--out", str(tmp_path / "a")], env=ros_env, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    time.sleep(apart)
+    second = subprocess.Popen([*argv, "--out", str(tmp_path / "b")], env=ros_env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+    results = []
+    for proc, out in ((first, tmp_path / "a"), (second, tmp_path / "b")):
+        stdout, stderr = proc.communicate(timeout=300)
+        metrics = [json.loads(p.read_text()) for p in out.glob("*/metrics.json")]
+        results.append((proc.returncode, stdout + stderr, metrics[0] if metrics else None))
+    ran = [r for r in results if r[0] == 0]
+    assert len(ran) <= 1, results  # never two "successful" runs of one mixed graph
+    for code, output, metrics in results:
+        if code == 0:
+            assert metrics["reached"] and metrics["foreign_publishers"] == [] and metrics["lockstep_timeouts"] == 0
+        else:
+            assert code == 1, output
+            refused = "refusing to start" in output and "runner run_scenario_" in output
+            foreign = metrics is not None and metrics["foreign_publishers"] and (
+                "another graph joined" in output or "not this run's" in output)
+            assert refused or foreign, output  # never a plain failure to reach
+    # On loopback each sees the other's runner node within its 1.5 s look: the later one (by the claim its
+    # node's name carries, not by which process was spawned first) refuses, and the earlier one runs.
+    assert len(ran) == 1, results
+    later = next(r for r in results if r[0] == 1)
+    assert "refusing to start" in later[1] and "before this one" in later[1] and later[2] is None, later[1]
+
+
+def test_another_graph_joining_mid_run_ends_the_run_with_exit_1_and_says_so(ros_env, launch, tmp_path):
+    """Where discovery was too slow for the start-up check: a second simulator joins the run's domain while
+    it runs. The run ends at once, exit 1, with the other graph named in its output and metrics.json."""
+    runner = subprocess.Popen([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out",
+                               str(tmp_path / "runs"), "--quiet", "--no-figures"], env=ros_env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list((tmp_path / "runs").glob("*/logs/sim.err")):
+        time.sleep(0.05)
+    time.sleep(1.0)
+    other = launch("twbr_sim", "sim_node", "-p", f"scenario:={COURSE}", params=("robot.yaml", "sim.yaml"))
+    out, err = runner.communicate(timeout=120)
+    assert runner.returncode == 1, out + err
+    assert "another graph joined this run's ROS_DOMAIN_ID" in err and "/sim_node publishing /clock" in err, err
+    (metrics,) = (tmp_path / "runs").glob("*/metrics.json")
+    m = json.loads(metrics.read_text())
+    assert any("a second /sim_node publishing" in f for f in m["foreign_publishers"]), m
+    assert m["ended_by"].startswith("failed: another graph joined"), m["ended_by"]
+    assert other.running  # the other graph is not ours to stop

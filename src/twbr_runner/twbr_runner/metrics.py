@@ -238,15 +238,18 @@ class RunMetrics:
     ended_by: str | None = None
     run_wall_time_s: float | None = None
     bag: BagSummary | None = None
+    # Publishers on the run's topics that were none of the run's own nodes (another graph, an injector):
+    # the run then measured more than its own graph, and the runner exits 1.
+    foreign_publishers: list[str] | None = None
 
     def as_json(self) -> dict[str, Any]:
         out = {f.name: getattr(self, f.name) for f in fields(self)
-               if f.name not in ("steps", "navigation", "ended_by", "run_wall_time_s", "bag")}
+               if f.name not in ("steps", "navigation", "ended_by", "run_wall_time_s", "bag", "foreign_publishers")}
         out.update({name: r.as_dict() if r is not None else None for name, r in self.steps.items()})
         if self.navigation is not None:
             out.update({k: v for k, v in asdict(self.navigation).items()
                         if v is not None or k not in PLANNER_ONLY})
-        for name in ("ended_by", "run_wall_time_s", "bag"):
+        for name in ("ended_by", "run_wall_time_s", "bag", "foreign_publishers"):
             value = getattr(self, name)
             if value is not None:
                 out[name] = asdict(value) if name == "bag" else value

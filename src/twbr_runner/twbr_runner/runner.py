@@ -15,6 +15,7 @@ runs/<scenario>-<time>/metrics.json and the response figures.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -67,7 +68,13 @@ RECORDED_TOPICS = {
 # How long the runner listens for another graph on its domain before it starts one (participants announce
 # themselves at once and then every 0.5 s: config/fastdds.xml).
 NEIGHBOUR_WAIT_S = 1.5
+# How often the runner looks for publishers that are not its graph's on the run's topics, while it runs.
+FOREIGN_CHECK_S = 1.0
 EXIT_FAILED = 1
+# Each runner's own rclpy node is named after when and by which process it started: two runners started
+# together see each other's, and the later one refuses (the earlier one runs), where neither graph has
+# started a node yet for the other to see.
+RUNNER_NODE_PREFIX = "run_scenario_"
 
 
 @dataclass
@@ -204,9 +211,11 @@ class Progress:
 
         self._rclpy = rclpy
         self.context = rclpy.Context()
+        self.claim = (time.time_ns() // 1_000_000, os.getpid())  # (start in ms since the epoch, pid)
         with _SIGNALS.deferred():
             rclpy.init(context=self.context, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
-            self.node = rclpy.create_node("run_scenario_progress", context=self.context)
+            self.node = rclpy.create_node(f"{RUNNER_NODE_PREFIX}{self.claim[0]}_{self.claim[1]}",
+                                          context=self.context)
             # sim_status comes ~100 times a wall second: SingleThreadedExecutor cost 7 % of a core here
             self.executor = new_executor(self.context)
             self.executor.add_node(self.node)
@@ -251,7 +260,8 @@ class Progress:
             self.spin(0.05)
 
     def neighbours(self, listen_s: float) -> list[str]:
-        """Nodes of another twbr graph, and publishers on the contract's topics, already on this domain."""
+        """Nodes of another twbr graph, publishers on the contract's topics, and runners started before this
+        one (by their node's claim) already on this domain."""
         deadline = time.monotonic() + listen_s
         while time.monotonic() < deadline:
             self.spin(0.1)
@@ -260,10 +270,31 @@ class Progress:
             for name, namespace in self.node.get_node_names_and_namespaces():
                 if name in (*KNOWN_NODES, "recorder"):
                     nodes.add(f"node {namespace.rstrip('/')}/{name}")
+                other = runner_claim(name)
+                if other is not None and other < self.claim:
+                    nodes.add(f"runner {name} (started {(self.claim[0] - other[0]) / 1000:.1f} s before this one)")
             for topic in RECORDED_TOPICS:
                 for p in self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic)):
                     publishers.add(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
         return sorted(nodes) + sorted(publishers)
+
+    def foreign_publishers(self, ours: Iterable[str]) -> list[str]:
+        """Publishers on the run's topics that are none of its nodes (`ours`: their names): a node of
+        another name, or a second publisher from a node of one of ours' names (another graph)."""
+        ours = set(ours)
+        found = []
+        with _SIGNALS.deferred():
+            for topic in RECORDED_TOPICS:
+                resolved = self.node.resolve_topic_name(topic)
+                by_node = Counter(f"{p.node_namespace.rstrip('/')}/{p.node_name}"
+                                  for p in self.node.get_publishers_info_by_topic(resolved))
+                for who, count in sorted(by_node.items()):
+                    name = who.rsplit("/", 1)[-1]
+                    if name not in ours:
+                        found.append(f"{who} publishing {resolved}")
+                    elif count > 1:
+                        found.append(f"a second {who} publishing {resolved} (another graph)")
+        return found
 
     def spin(self, seconds: float) -> None:
         with _SIGNALS.deferred():
@@ -273,6 +304,20 @@ class Progress:
         self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+def runner_claim(node_name: str) -> tuple[int, int] | None:
+    """(start ms, pid) of another runner's node, from its name; None for any other node."""
+    if not node_name.startswith(RUNNER_NODE_PREFIX):
+        return None
+    parts = node_name[len(RUNNER_NODE_PREFIX):].split("_")
+    if len(parts) != 2 or not all(p.isdigit() for p in parts):
+        return None
+    return int(parts[0]), int(parts[1])
+
+
+class AnotherGraph(RuntimeError):
+    """Another graph's nodes joined the run's domain mid-run: both runs are mixed, and this one ends now."""
 
 
 class GraphBusy(RuntimeError):
@@ -352,6 +397,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     _say(opts, f"run_scenario: {scenario.name} (seed {seed}, {scenario.duration:g} s sim time) on ROS_DOMAIN_ID"
                f" {domain} -> {run_dir}")
     procs: dict[str, NodeProcess] = {}
+    ours = [spec.executable for spec in nodes]  # each node is named as its executable
+    foreign: dict[str, None] = {}  # what was seen, in the order seen
     _SIGNALS.pending = None
     previous = {s: signal.signal(s, _SIGNALS.handler) for s in (signal.SIGINT, signal.SIGTERM)}
     code, reason = 0, "completed"
@@ -371,10 +418,13 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                 _say(opts, f"  viewer: {viewer_url(procs['viewer'], 30.0)}")
         sim = procs["sim"]
         tty = sys.stdout.isatty()
-        last_print = time.monotonic()
+        last_print = last_check = time.monotonic()
         while sim.running:
             progress.spin(0.1)
             now = time.monotonic()
+            if now - last_check >= FOREIGN_CHECK_S:
+                last_check = now
+                watch_foreign(progress, ours, foreign)
             for label, proc in procs.items():
                 if label not in ("sim", "viewer") and not proc.running:
                     raise RuntimeError(f"{label} exited with code {proc.proc.returncode}:\n{_tail(proc.output)}")
@@ -399,6 +449,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     except (RuntimeError, TimeoutError, ConfigError) as e:
         code, reason = EXIT_FAILED, f"failed: {e}"
     finally:
+        if code == 0 and procs:
+            with contextlib.suppress(Exception):  # one last look: a neighbour that joined near the end
+                watch_foreign(progress, ours, foreign)
         for s, handler in previous.items():
             signal.signal(s, handler)
         # Stop the sources first, the recorder last, so it sees everything that was published.
@@ -410,16 +463,32 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         if "recorder" in procs:
             procs["recorder"].stop()
         progress.close()
+    if foreign and code == 0:
+        code = EXIT_FAILED
     if code != 0:
-        print(f"run_scenario: {reason}", file=sys.stderr, flush=True)  # even with --quiet
-    metrics = analyse(run_dir, bag_dir, scenario, seed, sim_wall, time.monotonic() - wall_start, reason, opts)
+        told = (f"; publishers that are not this run's were on its topics: {'; '.join(list(foreign)[:6])}"
+                if foreign and not reason.startswith("failed: another graph") else "")
+        print(f"run_scenario: {reason}{told}", file=sys.stderr, flush=True)  # even with --quiet
+    metrics = analyse(run_dir, bag_dir, scenario, seed, sim_wall, time.monotonic() - wall_start, reason, opts,
+                      list(foreign))
     if metrics is None and code == 0:
         code = EXIT_FAILED
     return code, run_dir
 
 
+def watch_foreign(progress: Progress, ours: list[str], seen: dict[str, None]) -> None:
+    """Note publishers that are not the run's on its topics; another graph's nodes end the run at once
+    (the two mix: each answers the other's states, and neither run means anything)."""
+    for line in progress.foreign_publishers(ours):
+        seen.setdefault(line, None)
+    second = [line for line in seen if line.startswith("a second")]
+    if second:
+        raise AnotherGraph(f"another graph joined this run's ROS_DOMAIN_ID: {'; '.join(second[:4])}"
+                           " (give each run its own --domain)")
+
+
 def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: float | None, total_wall: float,
-            reason: str, opts: RunOptions) -> RunMetrics | None:
+            reason: str, opts: RunOptions, foreign: list[str] | None = None) -> RunMetrics | None:
     """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
     try:
         info = bag_info(bag_dir)
@@ -434,6 +503,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
         _say(opts, f"run_scenario: cannot measure the recording in {bag_dir}: {e}")
         return None
     metrics.ended_by = reason
+    metrics.foreign_publishers = list(foreign or [])
     metrics.run_wall_time_s = total_wall  # including start-up, discovery, shutdown and analysis start
     metrics.bag = BagSummary(str(bag_dir), info["storage_identifier"], info["message_count"])
     metrics.messages = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
@@ -479,6 +549,10 @@ def summary(metrics: RunMetrics, run_dir: Path, figures: list[Path]) -> str:
             f" [{f(m['pitch_after_transient_min_rad'])}, {f(m['pitch_after_transient_max_rad'])}] rad,"
             f" stuck {f(m.get('stuck_time_s'), '.2f')} s"
         )
+    if m.get("foreign_publishers"):
+        lines.append(f"  NOT THIS GRAPH ALONE: {len(m['foreign_publishers'])} publisher(s) that are not this run's"
+                     f" were on its topics ({'; '.join(m['foreign_publishers'][:4])}): these figures are not the"
+                     " graph's alone (exit status 1)")
     lines.append(f"  wrote {run_dir / 'metrics.json'}" + (f" and {len(figures)} figures" if figures else "")
                  + f"; bag in {run_dir / 'bag'}")
     return "\n".join(lines)
