@@ -38,6 +38,7 @@ def _file(tmp_path: Path, name: str, text: str) -> str:
     ("override_typo", ("unknown parameter 'pitch.kpp' (-p pitch.kpp:=...)", "did you mean 'pitch.kp'")),
     # rclpy's own: before, a 33-line traceback from inside Node() and exit 1
     ("use_sim_time_string", ("invalid parameter 'use_sim_time' = 'yes'", "must be true or false")),
+    ("impossible_torque", ("invalid parameter 'max_wheel_torque' = 0.01", "must be at least 2.639 N·m")),
     ("use_sim_time_integer", ("invalid parameter 'use_sim_time' = 1 (-p use_sim_time:=...)", "must be true or false")),
 ])
 def test_params_file_mistakes_stop_the_node_with_one_line_naming_them(launch, tmp_path, case, expected):
@@ -54,6 +55,8 @@ def test_params_file_mistakes_stop_the_node_with_one_line_naming_them(launch, tm
         args = ("--params-file", _file(tmp_path, f"{case}.yaml", files[case]))
     elif case == "missing_file":
         args = ("--params-file", str(tmp_path / "nowhere.yaml"))
+    elif case == "impossible_torque":
+        args = ("--params-file", str(CONFIG / "controller.yaml"), "-p", "max_wheel_torque:=0.01")
     elif case == "use_sim_time_integer":
         args = ("--params-file", str(CONFIG / "controller.yaml"), "-p", "use_sim_time:=1")
     else:
@@ -174,3 +177,30 @@ def test_gains_change_at_runtime_through_set_parameters_and_bad_changes_are_refu
     refused = _call(ros, planner_client.set_parameters([Parameter("rho_o", value=0.01)])).results[0]
     assert not refused.successful and "rho_o" in refused.reason  # below min_distance... and robot_radius
     assert "k_o 10.0 -> 12.0" in planner.output
+
+    # In range, but past what the robot can do (issue 34: accepted before, and the robot hit an obstacle at
+    # clearance -0.515 m, or fell in ~1 s): refused naming the robot's bound and where it comes from.
+    for name, value, bound in (("v_max", 10.0, "top speed"), ("max_acceleration", 100.0, "largest acceleration"),
+                               ("max_yaw_rate", 20.0, "top yaw rate"),
+                               ("max_yaw_acceleration", 1000.0, "largest yaw acceleration")):
+        refused = _call(ros, planner_client.set_parameters([Parameter(name, value=value)])).results[0]
+        assert not refused.successful and f"'{name}'" in refused.reason and bound in refused.reason, refused.reason
+        assert "robot.yaml" in refused.reason
+    refused = set_(("max_wheel_torque", 0.01))
+    assert not refused.successful and "holds the body" in refused.reason and "2.639" in refused.reason, refused.reason
+    assert _call(ros, planner_client.get_parameters(["v_max"])).values[0].double_value == 0.6
+    assert ros.spin_until(lambda: len(states) > 50, 5.0) and not states[-1].fallen
+
+
+def test_a_planner_asked_for_more_than_the_robot_can_do_refuses_to_start(launch, tmp_path):
+    """`v_max 10` on a robot whose motors top out at 2.4 m/s; the bound follows the robot_file given."""
+    installed = launch("twbr_planner", "planner_node", "-p", "v_max:=10.0", params=("planner.yaml",))
+    assert_refused_at_start(installed, "invalid parameter 'v_max' = 10", "must be at most 2.4 m/s", "top speed",
+                            "installed config/robot.yaml")
+    faster = (CONFIG / "robot.yaml").read_text().replace("supply_voltage: 24.0", "supply_voltage: 48.0")
+    robot = _file(tmp_path, "fast_robot.yaml", faster)
+    ok = launch("twbr_planner", "planner_node", "-p", "v_max:=3.0", "-p", f"robot_file:={robot}",
+                params=("planner.yaml",))
+    slow = launch("twbr_planner", "planner_node", "-p", "v_max:=3.0", params=("planner.yaml",))
+    assert_refused_at_start(slow, "'v_max' = 3", "2.4 m/s")
+    assert ok.running, ok.output  # 4.8 m/s on 48 V

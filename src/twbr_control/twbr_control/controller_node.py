@@ -27,16 +27,19 @@ from twbr_common.guard import RATE_LIMIT
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
-from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent
+from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent, check_within_robot
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import Action, RobotState, StateSync, VelocityCommand
 from twbr_msgs.msg import ControllerState, WheelTorques
+from twbr_sim.robot_limits import limits_from_file
 
 
 class ControllerNode(Node):
     def __init__(self) -> None:
         super().__init__("controller_node")
         cfg = check_consistent({**declare(self, CONTROL_SPECS), **declare(self, NODE_SPECS)})
+        self.limits = limits_from_file(cfg["robot_file"])
+        cfg = check_within_robot(cfg, self.limits)
         self.cfg = cfg
         self.controller = CascadeController(cfg, enabled=cfg["start_enabled"])
         self.controller.warm_up()  # before any publisher: once peers see this node, it answers on time
@@ -63,7 +66,8 @@ class ControllerNode(Node):
         self.create_service(SetBool, "~/enable", self._on_enable)
         self.graph = GraphWatch(self, ["wheel_torque_cmd", "controller_state"])
         self.parameter_revision = 0
-        accept_changes(self, (*CONTROL_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
+        accept_changes(self, (*CONTROL_SPECS, *NODE_SPECS), self.cfg,
+                       lambda c: check_within_robot(check_consistent(c), self.limits), self._retune)
         self.get_logger().info(
             f"cascaded PID at up to {cfg['rate']:g} Hz, pitch from {cfg['pitch_source']},"
             f" cmd_vel as {'TwistStamped' if stamped else 'Twist'},"

@@ -10,6 +10,7 @@ from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
 from twbr_control.lqr import LQR_SPECS
+from twbr_sim.robot_limits import ROBOT_FILE_SPEC, RobotLimits, at_most, limits_from_file
 
 GAIN_SPECS: tuple[ParamSpec, ...] = tunable(
     ParamSpec("velocity.kp", 0.4129, "velocity loop: pitch reference per m/s of speed error", "rad·s/m", 0.0, 100.0),
@@ -91,6 +92,7 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("enable_stamped_cmd_vel", False, "subscribe cmd_vel as geometry_msgs/TwistStamped (Nav2's name)"
               " instead of Twist"),
     ParamSpec("start_enabled", True, "command torque from the start; false waits for ~/enable (std_srvs/SetBool)"),
+    ROBOT_FILE_SPEC,
 )
 
 
@@ -104,6 +106,26 @@ def check_consistent(cfg: dict) -> dict:
     return cfg
 
 
+def check_within_robot(cfg: dict, limits: RobotLimits) -> dict:
+    """Refuse settings the robot cannot meet: references past its top speeds, a reference ramp steeper than it
+    can accelerate, and a torque limit too low to hold the body at the largest pitch reference."""
+    at_most(cfg, "max_velocity_ref", limits, "top_speed", "m/s")
+    at_most(cfg, "max_yaw_rate_ref", limits, "top_yaw_rate", "rad/s")
+    at_most(cfg, "reference_rate.velocity", limits, "max_acceleration", "m/s²")
+    lean = cfg["max_pitch_ref"] + abs(cfg["pitch_offset"])
+    needed = limits.holding_torque(lean)
+    if cfg["max_wheel_torque"] < needed:
+        raise ConfigError(
+            f"invalid parameter 'max_wheel_torque' = {cfg['max_wheel_torque']:g}: must be at least {needed:.4g} N·m,"
+            f" the torque per wheel that holds the body at max_pitch_ref + |pitch_offset| = {lean:g} rad against"
+            f" gravity (body_mass * gravity * com_height * sin(pitch) / 2, of {limits.source}); below it the"
+            " robot falls"
+        )
+    return cfg
+
+
 def resolve(overrides: Mapping[str, Any] | None = None) -> dict:
-    """The controller's settings for a headless run: the defaults with `overrides`, validated and checked."""
-    return check_consistent(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(overrides or {})}))
+    """The controller's settings for a headless run: the defaults with `overrides`, validated and checked
+    (against the installed robot.yaml)."""
+    cfg = check_consistent(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(overrides or {})}))
+    return check_within_robot(cfg, limits_from_file(""))

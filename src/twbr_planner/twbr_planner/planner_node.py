@@ -38,7 +38,8 @@ from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import Mode, Obstacles
 from twbr_planner.planner import ApfPlanner, PlannerOutput, Target
-from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent
+from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent, check_within_robot
+from twbr_sim.robot_limits import limits_from_file
 
 FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
 # Arrow length per unit of force: the direction is what steers, the length only has to be readable.
@@ -48,7 +49,9 @@ FORCE_SCALE = 0.2
 class PlannerNode(Node):
     def __init__(self) -> None:
         super().__init__("planner_node")
-        self.cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
+        cfg = check_consistent({**declare(self, APF_SPECS), **declare(self, NODE_SPECS)})
+        self.limits = limits_from_file(cfg["robot_file"])
+        self.cfg = check_within_robot(cfg, self.limits)
         self.core = ApfPlanner(self.cfg, self.cfg["rate"])
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.inputs = input_streams(self)
@@ -77,7 +80,8 @@ class PlannerNode(Node):
         self.create_subscription(Odometry, "odom", self._on_odom_bytes, SENSOR_SUB_QOS, raw=True)
         self.graph = GraphWatch(self, ["cmd_vel", "planner_state"])
         self.parameter_revision = 0
-        accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg, check_consistent, self._retune)
+        accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg,
+                       lambda c: check_within_robot(check_consistent(c), self.limits), self._retune)
         self.get_logger().info(
             f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"
             f" K_o {self.cfg['k_o']:g}, rho_o {self.cfg['rho_o']:g} m, K_s {self.cfg['k_s']:g},"

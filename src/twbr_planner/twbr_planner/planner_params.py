@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
+from twbr_sim.robot_limits import ROBOT_FILE_SPEC, RobotLimits, at_most, limits_from_file
 
 METHODS = ("paper", "robust")
 
@@ -88,7 +89,19 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
               0.001, 60.0),
     ParamSpec("enable_stamped_cmd_vel", False, "publish geometry_msgs/TwistStamped (Nav2's name) instead of Twist"),
     ParamSpec("marker_rate", 5.0, "rate of the force markers", "Hz", 0.1, 100.0),
+    ROBOT_FILE_SPEC,
 )
+
+
+def check_within_robot(cfg: dict, limits: RobotLimits) -> dict:
+    """Refuse settings the robot cannot meet (in range, but past what its motors and balance allow): a plan
+    that assumes them steers into what the robot cannot avoid."""
+    at_most(cfg, "v_max", limits, "top_speed", "m/s")
+    at_most(cfg, "max_yaw_rate", limits, "top_yaw_rate", "rad/s")
+    at_most(cfg, "max_acceleration", limits, "max_acceleration", "m/s²")
+    at_most(cfg, "brake_deceleration", limits, "max_acceleration", "m/s²")
+    at_most(cfg, "max_yaw_acceleration", limits, "max_yaw_acceleration", "rad/s²")
+    return cfg
 
 
 def check_consistent(cfg: dict) -> dict:
@@ -119,4 +132,5 @@ def resolve(overrides: Mapping[str, Any] | None = None, scenario: Any = None) ->
             validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned})
         except ConfigError as e:
             raise ConfigError(f"scenario {scenario.name!r}, field 'planner': {e}") from None
-    return check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned, **(overrides or {})}))
+    cfg = check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned, **(overrides or {})}))
+    return check_within_robot(cfg, limits_from_file(""))

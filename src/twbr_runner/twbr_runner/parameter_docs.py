@@ -45,7 +45,12 @@ no section for the node, a section without `ros__parameters`, a missing file or 
 `ros2 param set` (or rqt_reconfigure) while the node runs: checked by the same ranges and consistency
 rules, refused with the reason otherwise, applied between two steps, logged and counted in
 `parameter_revision` of `controller_state` / `planner_state`; the others are read-only, and
-`ros2 param describe` says why.
+`ros2 param describe` says why. Beyond its range, a planner's or controller's setting must be one the
+robot can meet (`robot_file`, the installed robot.yaml by default; `twbr_sim.robot_limits`): speeds up to
+the motors' no-load speed at the wheel, accelerations up to what the robot sustains within its fall limit
+and torque, a torque limit at least what holds the body at the largest pitch reference. The refusal names
+the bound and where it comes from, at start-up and at runtime (a necessary condition, not a tuning: a
+torque limit just above the holding torque still leaves little to recover with).
 """
 
 # (heading, specs, a note under the table or "")
