@@ -30,7 +30,6 @@ from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import P_D, P_FALL, P_R, robot_from_file, robot_params, top_wheel_speed, wheel_torque_limit
 
-
 ROBOT_FILE_SPEC = ParamSpec(
     "robot_file", "", "robot.yaml (its sim_node section) of the robot driven: speeds, accelerations and torques"
     " the robot cannot meet are refused, at start-up and at runtime; empty: the installed config/robot.yaml")
