@@ -74,10 +74,10 @@ def test_controller_settings_past_the_robot_are_refused_naming_the_bound():
         resolve({"max_wheel_torque": 0.01})
     with pytest.raises(ConfigError, match=r"'max_wheel_torque' = 3: must be at least 4.09"):
         resolve({"max_wheel_torque": 3.0, "max_pitch_ref": 0.2, "pitch_offset": 0.034})
-    with pytest.raises(ConfigError, match="'max_velocity_ref' = 5: .*top speed"):
+    with pytest.raises(ConfigError, match=r"'max_velocity_ref' = 5: .*top speed"):
         resolve({"max_velocity_ref": 5.0})
 
 
 def test_a_robot_file_that_is_missing_is_refused_by_name():
-    with pytest.raises(ConfigError, match="'robot_file' = '/nowhere.yaml': no such file"):
+    with pytest.raises(ConfigError, match=r"'robot_file' = '/nowhere\.yaml': no such file"):
         limits_from_file("/nowhere.yaml")
