@@ -106,3 +106,29 @@ def recorded_file(where: Path, pattern: str, over_bytes: int, timeout: float,
                 return f
         time.sleep(0.1)
     return None
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Iterator[Callable[[int], Path]]:
+    """A filesystem of a few MB (a tmpfs mounted for the test, unmounted after), to fill to the last byte.
+    Mounting needs root (CI and the set-up run as root here); elsewhere the test says why it skips."""
+    import shutil
+    import subprocess
+
+    mounted: list[Path] = []
+
+    def mount(megabytes: int) -> Path:
+        where = tmp_path / f"disk{len(mounted)}"
+        where.mkdir()
+        if os.geteuid() != 0 or shutil.which("mount") is None:
+            pytest.skip("a full disk needs a small filesystem: mounting a tmpfs needs root")
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={megabytes}m", "tmpfs", str(where)],
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            pytest.skip(f"cannot mount a {megabytes} MB tmpfs here: {done.stderr.strip()}")
+        mounted.append(where)
+        return where
+
+    yield mount
+    for where in mounted:
+        subprocess.run(["umount", "-l", str(where)], capture_output=True)

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -149,3 +150,74 @@ def test_the_recorder_keeps_every_message_acknowledged_before_sigint_and_serves_
     stamps, texts = zip(*[(t, m.data) for t, m in read_messages(bag)["/chatter"]], strict=True)
     assert list(texts) == [str(i) for i in range(600)]
     assert list(stamps) == sorted(stamps)
+
+
+def _flood(ros, topic: str, megabytes_per_s: float, until: Callable[[], bool], timeout: float) -> int:
+    """Publish incompressible 256 KB messages on `topic` until `until()`; returns how many were sent."""
+    import array
+
+    from std_msgs.msg import UInt8MultiArray
+
+    pub = ros.node.create_publisher(UInt8MultiArray, topic, 10)
+    msg = UInt8MultiArray()
+    sent = 0
+    deadline = time.monotonic() + timeout
+    period = 0.25 / megabytes_per_s
+    while not until() and time.monotonic() < deadline:
+        msg.data = array.array("B", os.urandom(256 * 1024))
+        pub.publish(msg)
+        sent += 1
+        ros.spin_for(period)
+    return sent
+
+
+def test_a_full_disk_stops_the_recorder_in_one_line_and_the_bag_is_recovered_elsewhere(tmp_path, ros, ros_env,
+                                                                                     small_disk):
+    """Before: a multi-line OSError traceback (its own error file cut at 4 KB on the same full disk), and
+    recover_bag onto a full disk was a traceback too."""
+    disk = small_disk(8)
+    bag = disk / "bag"
+    argv = [str(node_executable("twbr_runner", "recorder")), "-o", str(bag), "flood:std_msgs/msg/UInt8MultiArray"]
+    recorder = NodeProcess(argv, ros_env, tmp_path, "recorder")
+    assert ros.spin_until(lambda: "recording to" in recorder.output, 30.0), recorder.output
+    sent = _flood(ros, "flood", 10.0, lambda: not recorder.running, 30.0)
+    assert recorder.wait(timeout=10) == 1, recorder.output
+    lines = recorder.stderr.strip().splitlines()
+    stopped = [line for line in lines if "recording stopped" in line]
+    assert len(stopped) == 1 and "Traceback" not in recorder.output, recorder.output[-3000:]
+    for piece in (f"cannot write {bag}", "No space left on device", "MB free of", "recover_bag", "-o"):
+        assert piece in stopped[0], (piece, stopped[0])
+    assert not (bag / "metadata.yaml").exists()
+
+    # Onto the same full disk: one line, nothing half-written left, the source untouched.
+    before = sorted((p.name, p.stat().st_size) for p in bag.iterdir())
+    again = subprocess.run([str(node_executable("twbr_runner", "recover_bag")), str(bag), "-o", str(disk / "again")],
+                           env=ros_env, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 1 and "Traceback" not in again.stderr, again.stderr
+    assert len(again.stderr.strip().splitlines()) == 1 and "No space left on device" in again.stderr
+    assert not (disk / "again").exists() and sorted((p.name, p.stat().st_size) for p in bag.iterdir()) == before
+    in_place = subprocess.run([str(node_executable("twbr_runner", "recover_bag")), str(bag)], env=ros_env,
+                              capture_output=True, text=True, timeout=120)
+    assert in_place.returncode == 1 and "nothing was changed" in in_place.stderr, in_place.stderr
+    assert sorted((p.name, p.stat().st_size) for p in bag.iterdir()) == before
+
+    # Elsewhere: a readable bag with what was written before the disk filled.
+    fixed = tmp_path / "fixed"
+    done = subprocess.run([str(node_executable("twbr_runner", "recover_bag")), str(bag), "-o", str(fixed)],
+                          env=ros_env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    flood = read_messages(fixed, ["/flood"])["/flood"]
+    assert 15 <= len(flood) <= sent and all(len(m.data) == 256 * 1024 for _, m in flood), (len(flood), sent)
+    print(f"{len(flood)} of {sent} messages (256 KB) recovered from a full 8 MB disk")
+
+
+def test_a_run_whose_disk_fills_fails_in_one_line_pointing_at_recover_bag(tmp_path, ros_env, small_disk):
+    disk = small_disk(3)
+    done = subprocess.run([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(disk), "--quiet",
+                           "--no-figures"], env=ros_env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr, done.stderr[-3000:]
+    assert "recorder exited with code 1" in done.stderr and "No space left on device" in done.stderr, done.stderr
+    (bag,) = disk.glob("*/bag")
+    pointer = [line for line in done.stderr.splitlines() if "was not closed" in line]
+    assert len(pointer) == 1 and f"recover_bag {bag} -o" in pointer[0], done.stderr

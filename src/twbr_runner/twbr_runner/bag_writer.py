@@ -8,6 +8,8 @@ packages' share directories, the way rosbag2 finds them.
 
 from __future__ import annotations
 
+import errno
+import shutil
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -93,3 +95,24 @@ class BagWriter:
     @property
     def total(self) -> int:
         return sum(self.counts.values())
+
+
+# Write errors that mean "the disk cannot take more", not a bug: reported in one line, never a traceback.
+DISK_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def is_disk_full(error: BaseException) -> bool:
+    return isinstance(error, OSError) and error.errno in DISK_ERRNOS
+
+
+def disk_full_text(path: Path, error: OSError) -> str:
+    """One line: what could not be written, why, and how much room its filesystem has."""
+    where = Path(path)
+    while not where.exists() and where != where.parent:
+        where = where.parent
+    try:
+        usage = shutil.disk_usage(where)
+        room = f" ({usage.free / 1e6:.1f} MB free of {usage.total / 1e6:.1f} MB on its filesystem)"
+    except OSError:
+        room = ""
+    return f"cannot write {path}: {error.strerror or error}{room}"

@@ -8,7 +8,8 @@ after discovery is missed); others are subscribed when they appear in the graph 
 with the reliability and durability their publishers offer, as rosbag2 does. Each new publisher match
 is logged ("matched N publisher(s) on /topic") and published on ~/status (twbr_msgs/RecorderStatus,
 latched), which is what a runner waits for. Messages are stored as the CDR bytes received, stamped with
-the wall-clock time the middleware received them. SIGINT/SIGTERM close the bag cleanly.
+the wall-clock time the middleware received them. SIGINT/SIGTERM close the bag cleanly. A full disk stops
+the recording with one line (the path, the room left) and exit 1; what was written stays for recover_bag.
 
 The recorded subscriptions are drained every `--drain-period` (10 ms) instead of waking the process for
 each message: on a 2-core machine the recorder shares the CPUs with the control loop, and waking for each
@@ -20,6 +21,7 @@ written in the order they were received.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import signal
 import sys
@@ -36,7 +38,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
 from twbr_msgs.msg import RecorderStatus
-from twbr_runner.bag_writer import BagWriter, qos_profile, typestore_with
+from twbr_runner.bag_writer import BagWriter, disk_full_text, is_disk_full, qos_profile, typestore_with
 
 # Graph bookkeeping topics rosbag2 skips by default too, and recorders' own status.
 SKIPPED = ("/parameter_events", "/rosout")
@@ -44,6 +46,7 @@ STATUS_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durabil
 
 
 DRAIN_PERIOD_S = 0.01
+EXIT_DISK_FULL = 1
 # rmw implementations that do not report the reception time give 0: stamp those on arrival instead.
 NO_RECEPTION_TIME = 0
 
@@ -192,6 +195,18 @@ class Recorder(Node):
         print(f"[recorder] closed {self.writer.path}: {self.writer.total} messages ({counts})", file=sys.stderr,
               flush=True)
 
+    def abandon(self, error: OSError) -> None:
+        """The disk is full: stop, say so in one line, and leave what was written for recover_bag (closing
+        the bag would need the room that is missing)."""
+        with contextlib.suppress(OSError):
+            self.writer.close()
+            print(f"[recorder] closed {self.writer.path} with {self.writer.total} messages", file=sys.stderr)
+            return
+        print(f"[recorder] recording stopped: {disk_full_text(self.writer.path, error)}; the"
+              f" {self.writer.total} messages written are kept: `ros2 run twbr_runner recover_bag"
+              f" {self.writer.path} -o <a directory with room>` makes them a readable bag", file=sys.stderr,
+              flush=True)
+
 
 def _never_called(_data: bytes) -> None:
     raise AssertionError("a drained subscription was called back")
@@ -254,17 +269,32 @@ def main(argv: list[str] | None = None) -> int:
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     stop = StopSignals()
     node = None
+    failed: OSError | None = None
     try:
         node = Recorder(args.output, topics, args.all)
         record_until_shutdown(node, args.drain_period, stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except OSError as e:
+        if not is_disk_full(e):
+            raise
+        failed = e
     finally:
         if node is not None:
-            node.close()
+            try:
+                if failed is None:
+                    node.close()
+            except OSError as e:
+                if not is_disk_full(e):
+                    raise
+                failed = e
+            if failed is not None:
+                node.abandon(failed)
             node.destroy_node()
+        elif failed is not None:
+            print(f"[recorder] cannot start: {disk_full_text(args.output, failed)}", file=sys.stderr, flush=True)
         rclpy.try_shutdown()
-    return 0
+    return EXIT_DISK_FULL if failed is not None else 0
 
 
 if __name__ == "__main__":

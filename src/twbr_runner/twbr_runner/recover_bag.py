@@ -12,6 +12,7 @@ schemas, and writes a complete rosbag2 (MCAP) bag with metadata.yaml, as the rec
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -21,7 +22,7 @@ from mcap.records import Channel, Chunk, McapRecord, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from twbr_runner.bag_writer import BagWriter, qos_profile
+from twbr_runner.bag_writer import BagWriter, disk_full_text, is_disk_full, qos_profile
 
 EXIT_FAILED = 1
 _SEPARATOR = "=" * 80
@@ -73,6 +74,21 @@ def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, dict[str, 
     if output is None and (bag_dir / "metadata.yaml").exists():
         raise FileExistsError(f"{bag_dir}: has a metadata.yaml already (a closed bag); pass -o to rewrite it")
     target = output or bag_dir.with_name(bag_dir.name + ".recovering")
+    try:
+        return _rewrite(bag_dir, files, target, in_place=output is None)
+    except OSError as e:
+        if not is_disk_full(e):
+            raise
+        shutil.rmtree(target, ignore_errors=True)  # half a bag helps nobody, and frees the room it took
+        raise DiskFull(f"{disk_full_text(target, e)}; nothing was changed in {bag_dir}: pass -o with a directory"
+                       " on a disk with room") from None
+
+
+class DiskFull(RuntimeError):
+    """The recovered bag's disk is full: one line for the user, the source left as it was."""
+
+
+def _rewrite(bag_dir: Path, files: list[Path], target: Path, in_place: bool) -> tuple[Path, dict[str, int], str]:
     store = get_typestore(Stores.ROS2_JAZZY)
     writer = BagWriter(target, store)
     cuts = []
@@ -98,7 +114,7 @@ def recover(bag_dir: Path, output: Path | None = None) -> tuple[Path, dict[str, 
 
         cuts.append(salvage(path, take))
     writer.close()
-    if output is None:  # in place: the cut files are kept beside the recovered bag, renamed
+    if in_place:  # the cut files are kept beside the recovered bag, renamed
         for f in files:
             f.rename(f.with_name(f.name + ".cut"))
         for f in target.iterdir():
@@ -118,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAILED
     try:
         target, counts, cut = recover(a.bag, a.output)
-    except (FileNotFoundError, FileExistsError) as e:
+    except (FileNotFoundError, FileExistsError, DiskFull) as e:
         print(f"recover_bag: {e}", file=sys.stderr)
         return EXIT_FAILED
     total = sum(counts.values())

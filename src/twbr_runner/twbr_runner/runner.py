@@ -39,6 +39,7 @@ from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_runner.animation import run_animation
 from twbr_runner.bag_reader import bag_info, read_messages
+from twbr_runner.bag_writer import disk_full_text, is_disk_full
 from twbr_runner.figures import potential_figures, response_figures
 from twbr_runner.metrics import MEASURED_TOPICS, BagSummary, RunMetrics, compute_metrics, series_from_messages
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
@@ -500,20 +501,32 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
         metrics = compute_metrics(series, scenario.name, seed, wall if wall is not None else total_wall,
                                   step_responses=scenario.target is None)
     except Exception as e:  # whatever the recording lacks: report it, keep the bag
-        _say(opts, f"run_scenario: cannot measure the recording in {bag_dir}: {e}")
+        if bag_dir.is_dir() and not (bag_dir / "metadata.yaml").exists():
+            print(f"run_scenario: the bag in {bag_dir} was not closed (its recorder stopped early: see"
+                  f" {run_dir / 'logs' / 'recorder.err'}): `ros2 run twbr_runner recover_bag {bag_dir} -o <a"
+                  " directory with room>` makes it readable", file=sys.stderr, flush=True)
+        else:
+            print(f"run_scenario: cannot measure the recording in {bag_dir}: {e}", file=sys.stderr, flush=True)
         return None
     metrics.ended_by = reason
     metrics.foreign_publishers = list(foreign or [])
     metrics.run_wall_time_s = total_wall  # including start-up, discovery, shutdown and analysis start
     metrics.bag = BagSummary(str(bag_dir), info["storage_identifier"], info["message_count"])
     metrics.messages = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
-    (run_dir / "metrics.json").write_text(json.dumps(metrics.as_json(), indent=2) + "\n")
     figures = []
-    if opts.figures:
-        figures = response_figures(series, run_dir, scenario.name)
-        if series.planner:
-            figures += potential_figures(series, run_dir, scenario.name)
-            figures.append(run_animation(series, run_dir, scenario.name))
+    try:
+        (run_dir / "metrics.json").write_text(json.dumps(metrics.as_json(), indent=2) + "\n")
+        if opts.figures:
+            figures = response_figures(series, run_dir, scenario.name)
+            if series.planner:
+                figures += potential_figures(series, run_dir, scenario.name)
+                figures.append(run_animation(series, run_dir, scenario.name))
+    except OSError as e:
+        if not is_disk_full(e):
+            raise
+        print(f"run_scenario: {disk_full_text(Path(e.filename or run_dir), e)}: metrics.json or the figures are"
+              " missing or incomplete", file=sys.stderr, flush=True)
+        return None
     _say(opts, summary(metrics, run_dir, figures))
     if opts.view_port is not None:
         _say(opts, f"  the viewer stopped with the run; replay it: ros2 run twbr_view view_bag {run_dir} --serve")
@@ -607,6 +620,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except GraphBusy as e:
         print(f"run_scenario: refusing to start: {e}", file=sys.stderr)
+        return EXIT_FAILED
+    except OSError as e:
+        if not is_disk_full(e):
+            raise
+        print(f"run_scenario: {disk_full_text(Path(e.filename or opts.out_root), e)}", file=sys.stderr)
         return EXIT_FAILED
     return code
 
