@@ -44,6 +44,7 @@ bench: setup
 	@$(RUN) python benchmarks/bench_control_loop.py --json $(BENCH_OUT)/control_loop.json
 	@$(RUN) python benchmarks/bench_torque.py
 	@$(RUN) python benchmarks/bench_viewer.py --json $(BENCH_OUT)/viewer.json
+	@$(RUN) python benchmarks/bench_metrics.py --json $(BENCH_OUT)/metrics.json
 
 # Issue 17's robustness table (pid and lqr, ideal and realistic sensors, nominal / ±20 / ±40 % robots)
 ROBUST_N ?= 1000

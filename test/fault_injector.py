@@ -105,13 +105,30 @@ class FaultInjector(Node):
         super().__init__("fault_injector")
         self.declare_parameter("rate", 10.0)  # messages per second per topic [Hz], wall time
         self.declare_parameter("topics", [*STAMPED, "cmd_vel"])
-        topics = set(self.get_parameter("topics").value)
+        # flood_obstacles > 0: instead, obstacle arrays of that many obstacles, 500 m away and unstamped (what
+        # `ros2 topic pub -r R /obstacles ...` sends), at `rate`: a flood of large messages
+        self.declare_parameter("flood_obstacles", 0)
+        count = self.get_parameter("flood_obstacles").value
+        topics = set(self.get_parameter("topics").value) if count <= 0 else set()
         self.pubs = {topic: self.create_publisher(kind, topic, 10) for topic, (kind, _) in STAMPED.items()
                      if topic in topics}
         self.pub_cmd_vel = self.create_publisher(Twist, "cmd_vel", 10) if "cmd_vel" in topics else None
         self.sent: Counter[str] = Counter()
         self._turn = 0
-        self.create_timer(1.0 / self.get_parameter("rate").value, self._tick)
+        if count > 0:
+            self.flood = ObstacleArray()
+            for i in range(count):
+                o = Obstacle(id=1000 + i, radius=0.3)
+                o.position.x, o.position.y = 500.0 + (i % 100), 500.0 + i // 100
+                self.flood.obstacles.append(o)
+            self.pub_flood = self.create_publisher(ObstacleArray, "obstacles", 10)
+            self.create_timer(1.0 / self.get_parameter("rate").value, self._flood)
+        else:
+            self.create_timer(1.0 / self.get_parameter("rate").value, self._tick)
+
+    def _flood(self) -> None:
+        self.pub_flood.publish(self.flood)
+        self.sent["obstacles:flood"] += 1
 
     def _tick(self) -> None:
         now = self.get_clock().now().nanoseconds

@@ -198,7 +198,7 @@ def assert_same_rows(read, msg: ObstacleArray) -> None:
 
 
 @pytest.mark.parametrize("frame", FRAMES)
-@pytest.mark.parametrize("count", [0, 1, 2, 5])
+@pytest.mark.parametrize("count", [0, 1, 2, 5, 5000])
 def test_obstacle_rows_read_from_the_bytes_are_the_deserialized_ones(frame, count):
     msg = obstacle_array(frame, count)
     data = serialize_message(msg)

@@ -128,7 +128,7 @@ class PlannerNode(Node):
         stamp, rows = stamp_seconds(obstacles.stamp), obstacles.rows
         if (rows[:, 5] < 0.0).any():
             self.inputs.dropped("obstacles", "negative radius")
-        elif self._admit("obstacles", stamp, rows[:, 1:].ravel().tolist()):
+        elif self._admit("obstacles", stamp, rows[:, 1:]):
             self._obstacles = (stamp, rows)
             self._plan_pending()
 

@@ -21,7 +21,8 @@ def straight_run() -> RunSeries:
         m.total_force.x, m.total_force.y = 1.0, -0.5
         planner.append(m)
     return RunSeries(odom_t=t, x_c=0.4 * t, y_c=np.zeros_like(t), target_t=np.array([0.0]),
-                     target_xy=np.array([[6.0, 0.0]]), obstacles=[(0.0, [(1, 2.0, 1.0, 0.5)])], planner=planner)
+                     target_xy=np.array([[6.0, 0.0]]), obstacles=[(0.0, np.array([[1, 2.0, 1.0, 0.0, 0.0, 0.5]]))],
+                     planner=planner)
 
 
 def test_the_animation_has_a_frame_per_step_and_the_robot_moves(tmp_path):

@@ -30,3 +30,31 @@ def test_equal_stamps_keep_the_first_state_and_the_last_status():
     s = series_from_messages({"/odom": [(0, first), (1, again)], "/sim_status": [(0, status[0]), (1, status[1])]})
     assert list(s.x_c) == [0.0]
     assert [m.steps for m in s.sim_status] == [2]
+
+
+def test_obstacle_lists_are_kept_as_snapshots_and_moved_to_the_instant_asked():
+    """A recording's obstacle arrays are not held whole (5,000 obstacles at 50 Hz made the metrics step
+    take > 5 GB): one every OBSTACLE_SNAPSHOT_PERIOD and the last, moved along their velocity when drawn."""
+    from rclpy.serialization import serialize_message
+
+    from twbr_msgs.msg import Obstacle, ObstacleArray
+    from twbr_runner.figures import obstacles_at
+    from twbr_runner.metrics import OBSTACLE_SNAPSHOT_PERIOD
+
+    def array(t: float) -> bytes:
+        msg = ObstacleArray()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(t), round((t - int(t)) * 1e9)
+        for i in range(200):
+            o = Obstacle(id=i, radius=0.3)
+            o.position.x, o.position.y, o.velocity.x = float(i) + 0.5 * t, 1.0, 0.5
+            msg.obstacles.append(o)
+        return bytes(serialize_message(msg))
+
+    items = [(k, array(0.01 * k)) for k in range(1, 1001)]  # 10 s at 100 Hz, as raw bytes
+    clock = [(k, NS(clock=NS(sec=int(0.01 * k), nanosec=round((0.01 * k % 1) * 1e9)))) for k in range(1, 1001)]
+    s = series_from_messages({"/clock": clock, "/obstacles": items})
+    assert s.counts["/obstacles"] == 1000
+    assert len(s.obstacles) <= 10.0 / OBSTACLE_SNAPSHOT_PERIOD + 2 and s.obstacles[-1][0] == 10.0
+    for t in (0.013, 3.337, 9.999):
+        at = obstacles_at(s, t)
+        assert len(at) == 200 and all(math.isclose(x, i + 0.5 * t, abs_tol=1e-9) for i, x, _, _ in at)

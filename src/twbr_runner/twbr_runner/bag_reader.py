@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import struct
 from collections import Counter, defaultdict
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -41,18 +41,34 @@ def mcap_files(bag_dir: Path) -> list[Path]:
 
 def read_messages(bag_dir: Path, topics: Iterable[str] | None = None,
                   undecodable: Counter | None = None) -> dict[str, list[tuple[int, Any]]]:
-    """{topic: [(receive time ns, decoded message), ...]} in receive order.
+    """{topic: [(receive time ns, decoded message), ...]} in receive order: the whole selection in memory
+    (iter_messages streams it)."""
+    out: dict[str, list[tuple[int, Any]]] = defaultdict(list)
+    for topic, received, msg in iter_messages(bag_dir, topics, undecodable):
+        out[topic].append((received, msg))
+    return dict(out)
+
+
+def iter_messages(bag_dir: Path, topics: Iterable[str] | None = None, undecodable: Counter | None = None,
+                  raw: Iterable[str] = (), with_topic: bool = True) -> Iterator[tuple]:
+    """(topic, receive time ns, message) in receive order, one at a time; (receive time, message) without
+    the topic. Topics in `raw` come as their CDR bytes (the caller reads what it needs from them: a large
+    array decoded field by field is slow and large).
 
     A recorder keeps the bytes it received, as they came: a message that does not decode as its topic's
     type (malformed bytes from a neighbour on the network) is left out and counted per topic in
     `undecodable`, instead of making the whole bag unreadable."""
-    out: dict[str, list[tuple[int, Any]]] = defaultdict(list)
     wanted = None if topics is None else list(topics)
+    raw = set(raw)
     factory = DecoderFactory()
     for path in mcap_files(bag_dir):
         with path.open("rb") as f:
             decoders: dict[int, Any] = {}
             for schema, channel, message in make_reader(f).iter_messages(topics=wanted, log_time_order=True):
+                if channel.topic in raw:
+                    yield (channel.topic, message.log_time, message.data) if with_topic else (
+                        message.log_time, message.data)
+                    continue
                 decode = decoders.get(channel.id)
                 if decode is None:
                     decode = factory.decoder_for(channel.message_encoding, schema)
@@ -66,5 +82,4 @@ def read_messages(bag_dir: Path, topics: Iterable[str] | None = None,
                     if undecodable is not None:
                         undecodable[channel.topic] += 1
                     continue
-                out[channel.topic].append((message.log_time, decoded))
-    return dict(out)
+                yield (channel.topic, message.log_time, decoded) if with_topic else (message.log_time, decoded)

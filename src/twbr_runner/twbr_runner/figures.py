@@ -75,10 +75,13 @@ def response_figures(s: RunSeries, out_dir: Path, title: str) -> list[Path]:
 
 
 def obstacles_at(s: RunSeries, t: float) -> list[tuple[int, float, float, float]]:
+    """(id, x, y, radius) of each obstacle at `t`: the last snapshot before it, moved along its velocity."""
     if not s.obstacles:
         return []
     k = max(0, int(np.searchsorted([o[0] for o in s.obstacles], t, side="right")) - 1)
-    return s.obstacles[k][1]
+    stamp, rows = s.obstacles[k]
+    age = max(0.0, t - stamp)
+    return [(int(r[0]), float(r[1] + r[3] * age), float(r[2] + r[4] * age), float(r[5])) for r in rows]
 
 
 def target_at(s: RunSeries, t: float) -> tuple[float, float] | None:
@@ -127,10 +130,9 @@ def planner_gains(s: RunSeries) -> dict:
 
 def field_extent(s: RunSeries) -> tuple[float, float, float, float]:
     """(x0, x1, y0, y1) holding both paths and the obstacles at the start and the end, with a margin."""
-    xs = [*s.x_c, *s.target_xy[:, 0]] + [o[1] + sign * o[3] for _, obs in s.obstacles[:1] + s.obstacles[-1:]
-                                          for o in obs for sign in (-1, 1)]
-    ys = [*s.y_c, *s.target_xy[:, 1]] + [o[2] + sign * o[3] for _, obs in s.obstacles[:1] + s.obstacles[-1:]
-                                          for o in obs for sign in (-1, 1)]
+    ends = [rows for _, rows in s.obstacles[:1] + s.obstacles[-1:]]
+    xs = [*s.x_c, *s.target_xy[:, 0]] + [o[1] + sign * o[5] for obs in ends for o in obs for sign in (-1, 1)]
+    ys = [*s.y_c, *s.target_xy[:, 1]] + [o[2] + sign * o[5] for obs in ends for o in obs for sign in (-1, 1)]
     return min(xs) - 1.5, max(xs) + 1.5, min(ys) - 1.5, max(ys) + 1.5
 
 
@@ -140,7 +142,7 @@ def potential_figures(s: RunSeries, out_dir: Path, title: str) -> list[Path]:
     params = planner_gains(s)
     extent = field_extent(s)
     moving = (len(s.target_xy) > 1 and np.ptp(s.target_xy, axis=0).max() > 1e-6) or (
-        len(s.obstacles) > 1 and s.obstacles[0][1] != s.obstacles[-1][1])
+        len(s.obstacles) > 1 and not np.array_equal(s.obstacles[0][1][:, 1:3], s.obstacles[-1][1][:, 1:3]))
     end = float(s.odom_t[-1])
     instants = [end * k / 3 for k in range(1, 4)] if moving else [end]
     if moving:

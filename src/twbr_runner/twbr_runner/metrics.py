@@ -1,4 +1,4 @@
-"""A run's figures of merit, computed from its recording alone (decoded messages -> arrays -> metrics).
+"""A run's figures of merit, computed from its recording alone (messages, streamed -> arrays -> metrics).
 
 Time is the messages' header stamps (sim time), never the receive time. The pitch is the true one from
 odom's orientation; the references, measurements and commands are what the controller published.
@@ -7,15 +7,19 @@ odom's orientation; the references, measurements and commands are what the contr
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from twbr_batch.response import PITCH_BAND, StepResponse, settle_time, step_response
+from twbr_common.cdr import obstacle_rows, obstacle_rows_of
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT, InputGuard, Verdict
+from twbr_runner.bag_reader import iter_messages
 
 TRANSIENT_S = 2.0  # s after the first non-zero reference: the paper's "first transient" (1.5-1.75 s)
 CONTROLLER_FIELDS = (
@@ -26,8 +30,8 @@ CONTROLLER_FIELDS = (
 
 
 # What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
-MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/joint_states", "/sim_status", "/world_status", "/target",
-                   "/obstacles", "/planner_state")
+MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/ground_truth", "/joint_states", "/sim_status",
+                   "/world_status", "/target", "/obstacles", "/planner_state")
 
 
 def stamp_of(msg: Any) -> float:
@@ -54,12 +58,11 @@ class RunSeries:
     world_status: list[Any] = field(default_factory=list)
     target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
-    # (stamp, [(id, x, y, radius), ...]) per obstacles message
-    obstacles: list[tuple[float, list[tuple[int, float, float, float]]]] = field(default_factory=list)
+    # (stamp, rows of id, x, y, vx, vy, radius): snapshots of the obstacle list (OBSTACLE_SNAPSHOT_PERIOD)
+    obstacles: list[tuple[float, np.ndarray]] = field(default_factory=list)
     planner: list[Any] = field(default_factory=list)  # PlannerState messages in stamp order
     counts: dict[str, int] = field(default_factory=dict)
     refused: dict[str, int] = field(default_factory=dict)  # messages no node would accept, by topic
-    messages: dict[str, list[tuple[int, Any]]] = field(default_factory=dict)
 
 
 # The numbers each measured topic contributes, for admission (see _admitted).
@@ -68,7 +71,6 @@ _VALUES: dict[str, Any] = {
                         m.pose.pose.orientation.y, m.pose.pose.orientation.z, m.pose.pose.orientation.w,
                         m.twist.twist.linear.x, m.twist.twist.angular.z),
     "/target": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
-    "/obstacles": lambda m: tuple(v for o in m.obstacles for v in (o.position.x, o.position.y, o.radius)),
     "/planner_state": lambda m: (m.velocity_cmd, m.yaw_rate_cmd, m.distance_to_target),
     "/controller_state": lambda m: tuple(float(getattr(m, name)) for name in CONTROLLER_FIELDS),
     "/joint_states": lambda m: tuple(m.effort),
@@ -92,6 +94,9 @@ class BagClock:
         # A restarted simulator sends its clock back: the clock at a receipt is the last one sent, not the max.
         self._clock = np.array([c for _, c in received])
 
+    def __len__(self) -> int:
+        return len(self._received)
+
     def at(self, received_ns: int) -> float:
         if not len(self._received):
             return received_ns * 1e-9
@@ -99,65 +104,155 @@ class BagClock:
         return float(self._clock[i]) if i >= 0 else 0.0
 
 
-def _admitted(topic: str, items: list[tuple[int, Any]], refused: dict[str, int], clock: BagClock,
-              keep_last: bool = False) -> list[Any]:
-    """The messages a node would have accepted, in stamp order, one per stamp.
+class _Admission:
+    """One topic's messages as a node would have accepted them, streamed: the nodes' guard in receive order,
+    judged against the bag's clock, one message per stamp.
 
     A bag records everything on a topic, including what another publisher injected (NaN, absurd values, no
     stamp, out of order, stamped ahead of the clock); the metrics are of the run, so they read only what
-    passes the nodes' own guard. Values and order are judged, and stamps against the bag's clock (an
-    unstamped message comes out of order). A lockstep simulator may re-offer its first state: equal stamps
-    keep the first (statuses: the last, which carries the final counters).
+    passes the nodes' own guard. The guard refuses a stamp older than the last accepted one, so what passes
+    comes in stamp order; a lockstep simulator may re-offer its first state: equal stamps keep the first
+    (statuses: the last, which carries the final counters).
     """
-    values = _VALUES.get(topic, lambda m: ())
-    # The widest of the nodes' limits; no timeout (the recorder is allowed to lag).
-    guard = InputGuard(math.inf, require_stamp=True, limit=POSITION_LIMIT, future_tolerance=BAG_FUTURE_TOLERANCE)
-    by_stamp: dict[float, Any] = {}
-    for received, msg in sorted(items, key=lambda item: item[0]):
+
+    def __init__(self, keep_last: bool = False) -> None:
+        # The widest of the nodes' limits; no timeout (the recorder is allowed to lag).
+        self.guard = InputGuard(math.inf, require_stamp=True, limit=POSITION_LIMIT,
+                                future_tolerance=BAG_FUTURE_TOLERANCE)
+        self.keep_last = keep_last
+        self.last: float | None = None
+
+    def offer(self, t: float, values, now: float) -> str:
+        """'new' (append), 'replace' (the last one, same stamp) or 'drop'."""
+        if self.guard.offer(t, values, now) is not Verdict.ACCEPTED:
+            return "drop"
+        if t == self.last:
+            return "replace" if self.keep_last else "drop"
+        self.last = t
+        return "new"
+
+
+def _put(rows: list, verdict: str, row: Any) -> None:
+    if verdict == "new":
+        rows.append(row)
+    elif verdict == "replace":
+        rows[-1] = row
+
+
+# Obstacle lists kept for the figures: one every this many seconds of sim time, and the last. A recording
+# of 5,000 obstacles 50 times a second would otherwise be held whole (GBs); the metrics read none of them.
+OBSTACLE_SNAPSHOT_PERIOD = 0.25  # [s]
+_STATUS_TOPICS = ("/sim_status", "/world_status")
+
+
+class SeriesBuilder:
+    """A run's series from its messages one at a time, in receive order: each message is reduced to the
+    numbers the metrics and figures read as it comes, and never kept (obstacle lists: snapshots). Memory
+    grows with the run's sim time (~1 KB per sim second per topic at 200 Hz), not with the bag's size."""
+
+    def __init__(self, clock: BagClock) -> None:
+        self.clock = clock
+        self.counts: dict[str, int] = {}
+        self._admission: dict[str, _Admission] = {}
+        self._rows: dict[str, list] = {}
+        self._obstacle_last: tuple[float, list] | None = None
+        self._obstacles: list[tuple[float, list]] = []
+
+    def _offer(self, topic: str, t: float, values, received: int) -> str:
+        admission = self._admission.get(topic)
+        if admission is None:
+            admission = self._admission[topic] = _Admission(keep_last=topic in _STATUS_TOPICS)
+        return admission.offer(t, values, self.clock.at(received))
+
+    def add(self, topic: str, received: int, msg: Any) -> None:
+        """One message received at `received` [ns]: decoded, or for /obstacles its CDR bytes too."""
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+        if topic == "/obstacles":
+            self._add_obstacles(received, msg)
+            return
+        if topic not in _VALUES and topic not in ("/ground_truth",):
+            return
         t = stamp_of(msg)
-        if guard.offer(t, values(msg), now=clock.at(received)) is not Verdict.ACCEPTED:
-            continue
-        if keep_last:
-            by_stamp[t] = msg
+        values = _VALUES.get(topic if topic != "/ground_truth" else "/odom")(msg)
+        verdict = self._offer(topic, t, values, received)
+        if verdict == "drop":
+            return
+        if topic in ("/odom", "/ground_truth"):
+            q = msg.pose.pose.orientation
+            row = (t, msg.pose.pose.position.x, msg.pose.pose.position.y, rpy_from_quaternion(q.x, q.y, q.z, q.w)[1],
+                   msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+        elif topic == "/controller_state":
+            row = (t, *values)
+        elif topic == "/joint_states":
+            row = (t, *(list(msg.effort)[:2]))
+        elif topic == "/target":
+            row = (t, msg.pose.pose.position.x, msg.pose.pose.position.y)
+        else:  # statuses and planner_state: a few fields each, 20 Hz
+            row = msg
+        _put(self._rows.setdefault(topic, []), verdict, row)
+
+    def _add_obstacles(self, received: int, msg: Any) -> None:
+        read = obstacle_rows(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else obstacle_rows_of(msg)
+        if read is None:
+            return
+        t = read.stamp.sec + read.stamp.nanosec * 1e-9
+        if self._offer("/obstacles", t, read.rows[:, (1, 2, 5)], received) != "new":
+            return
+        snapshot = (t, read.rows.copy())
+        kept = self._obstacles[-1][0] if self._obstacles else -math.inf
+        if t >= kept + OBSTACLE_SNAPSHOT_PERIOD - 1e-9:
+            self._obstacles.append(snapshot)
+            self._obstacle_last = None
         else:
-            by_stamp.setdefault(t, msg)
-    if guard.rejected_total:
-        refused[topic] = guard.rejected_total
-    return [by_stamp[t] for t in sorted(by_stamp)]
+            self._obstacle_last = snapshot
+
+    def series(self) -> RunSeries:
+        s = RunSeries(counts=dict(self.counts))
+        s.refused = {topic: a.guard.rejected_total for topic, a in self._admission.items() if a.guard.rejected_total}
+        control = self._rows.get("/controller_state", [])
+        s.control_t = np.array([r[0] for r in control])
+        s.control = {name: np.array([r[1 + i] for r in control]) for i, name in enumerate(CONTROLLER_FIELDS)}
+        # With realistic sensors odom is dead reckoning from encoder counts: the simulator's ground_truth is
+        # what the robot really did.
+        truth = self._rows.get("/ground_truth", [])
+        odom = np.array(truth or self._rows.get("/odom", []), dtype=float).reshape(-1, 6)
+        s.odom_t, s.x_c, s.y_c, s.pitch = odom[:, 0], odom[:, 1], odom[:, 2], odom[:, 3]
+        if truth:
+            s.velocity_true = np.interp(s.control_t, s.odom_t, odom[:, 4])
+            s.yaw_rate_true = np.interp(s.control_t, s.odom_t, odom[:, 5])
+        else:
+            s.velocity_true, s.yaw_rate_true = s.control["velocity"], s.control["yaw_rate"]
+        joints = self._rows.get("/joint_states", [])
+        s.joints_t = np.array([r[0] for r in joints])
+        s.wheel_effort = np.array([r[1:3] for r in joints], dtype=float).reshape(-1, 2)
+        s.sim_status = self._rows.get("/sim_status", [])
+        s.world_status = self._rows.get("/world_status", [])
+        target = np.array(self._rows.get("/target", []), dtype=float).reshape(-1, 3)
+        s.target_t, s.target_xy = target[:, 0], target[:, 1:3]
+        s.obstacles = self._obstacles + ([self._obstacle_last] if self._obstacle_last is not None else [])
+        s.planner = self._rows.get("/planner_state", [])
+        return s
 
 
 def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSeries:
-    s = RunSeries(counts={t: len(v) for t, v in messages.items()}, messages=dict(messages))
-    clock = BagClock(messages.get("/clock", []))
-    control = _admitted("/controller_state", messages.get("/controller_state", []), s.refused, clock)
-    s.control_t = np.array([stamp_of(m) for m in control])
-    s.control = {name: np.array([float(getattr(m, name)) for m in control]) for name in CONTROLLER_FIELDS}
-    # With realistic sensors odom is dead reckoning from encoder counts: the simulator's ground_truth is
-    # what the robot really did.
-    truth = _admitted("/ground_truth", messages.get("/ground_truth", []), s.refused, clock)
-    odom = truth or _admitted("/odom", messages.get("/odom", []), s.refused, clock)
-    s.odom_t = np.array([stamp_of(m) for m in odom])
-    s.x_c = np.array([m.pose.pose.position.x for m in odom])
-    s.y_c = np.array([m.pose.pose.position.y for m in odom])
-    s.pitch = np.array([rpy_from_quaternion(m.pose.pose.orientation.x, m.pose.pose.orientation.y,
-                                            m.pose.pose.orientation.z, m.pose.pose.orientation.w)[1] for m in odom])
-    if truth:
-        s.velocity_true = np.interp(s.control_t, s.odom_t, [m.twist.twist.linear.x for m in truth])
-        s.yaw_rate_true = np.interp(s.control_t, s.odom_t, [m.twist.twist.angular.z for m in truth])
-    else:
-        s.velocity_true, s.yaw_rate_true = s.control["velocity"], s.control["yaw_rate"]
-    joints = _admitted("/joint_states", messages.get("/joint_states", []), s.refused, clock)
-    s.joints_t = np.array([stamp_of(m) for m in joints])
-    s.wheel_effort = np.array([list(m.effort)[:2] for m in joints]).reshape(-1, 2)
-    s.sim_status = _admitted("/sim_status", messages.get("/sim_status", []), s.refused, clock, keep_last=True)
-    s.world_status = _admitted("/world_status", messages.get("/world_status", []), s.refused, clock, keep_last=True)
-    target = _admitted("/target", messages.get("/target", []), s.refused, clock)
-    s.target_t = np.array([stamp_of(m) for m in target])
-    s.target_xy = np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for m in target]).reshape(-1, 2)
-    s.obstacles = [(stamp_of(m), [(o.id, o.position.x, o.position.y, o.radius) for o in m.obstacles])
-                   for m in _admitted("/obstacles", messages.get("/obstacles", []), s.refused, clock)]
-    s.planner = _admitted("/planner_state", messages.get("/planner_state", []), s.refused, clock)
-    return s
+    """The series of decoded messages by topic ({topic: [(receive time ns, message), ...]})."""
+    builder = SeriesBuilder(BagClock(messages.get("/clock", [])))
+    for topic, items in messages.items():
+        for received, msg in sorted(items, key=lambda item: item[0]):
+            builder.add(topic, received, msg)
+    return builder.series()
+
+
+def series_from_bag(bag_dir: Path, undecodable: Counter | None = None) -> RunSeries:
+    """The series of a recorded run, streamed from its bag: /clock first (the bag's clock), then every
+    measured topic message by message, obstacle arrays read from their bytes."""
+    clock = BagClock(list(iter_messages(bag_dir, ["/clock"], undecodable, with_topic=False)))
+    builder = SeriesBuilder(clock)
+    for topic, received, msg in iter_messages(bag_dir, [t for t in MEASURED_TOPICS if t != "/clock"], undecodable,
+                                              raw=("/obstacles",)):
+        builder.add(topic, received, msg)
+    builder.counts["/clock"] = len(clock)
+    return builder.series()
 
 
 def _rms(x: np.ndarray) -> float:

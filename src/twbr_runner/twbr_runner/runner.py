@@ -38,10 +38,10 @@ from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_runner.animation import run_animation
-from twbr_runner.bag_reader import bag_info, read_messages
+from twbr_runner.bag_reader import bag_info
 from twbr_runner.bag_writer import disk_full_text, is_disk_full
 from twbr_runner.figures import potential_figures, response_figures
-from twbr_runner.metrics import MEASURED_TOPICS, BagSummary, RunMetrics, compute_metrics, series_from_messages
+from twbr_runner.metrics import BagSummary, RunMetrics, compute_metrics, series_from_bag
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
 from twbr_sim.scenario import Scenario, load_scenario
@@ -494,7 +494,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     try:
         info = bag_info(bag_dir)
         undecodable: Counter = Counter()
-        series = series_from_messages(read_messages(bag_dir, MEASURED_TOPICS, undecodable))
+        series = series_from_bag(bag_dir, undecodable)
         if undecodable:  # the recorder keeps what arrived: a neighbour's malformed bytes are not measured
             print(f"run_scenario: left out of the metrics, messages that do not decode as their topic's type:"
                   f" {dict(undecodable)}", file=sys.stderr, flush=True)
