@@ -267,3 +267,51 @@ def _run_course(out: Path, env: dict[str, str]) -> dict:
     assert done.returncode == 0, done.stdout + done.stderr
     (run_dir,) = out.iterdir()
     return json.loads((run_dir / "metrics.json").read_text())
+
+
+WALL_AHEAD = """name: wall_ahead
+description: the robot alone with an obstacle 2.5 m straight ahead; no target (nothing plans)
+duration: 12.0
+seed: 1
+robot: {x: 0.0, y: 0.0, yaw: 0.0}
+obstacles:
+  - {id: 1, position: [2.5, 0.0], radius: 0.3}
+"""
+
+
+@pytest.mark.parametrize("monitor", [True, False], ids=["monitored", "unmonitored"])
+def test_a_foreign_cmd_vel_cannot_drive_the_robot_into_an_obstacle(launch, ros, tmp_path, monitor):
+    """Any cmd_vel passes the controller's collision monitor. Before: a foreign publisher driving straight at
+    an obstacle hit it (clearance -0.173 m). With the monitor off (the test's control) it still does."""
+    from geometry_msgs.msg import Twist
+
+    scenario = tmp_path / "wall_ahead.yaml"
+    scenario.write_text(WALL_AHEAD)
+    states: list[ControllerState] = []
+    world: list[WorldStatus] = []
+    ros.node.create_subscription(ControllerState, "controller_state", states.append, RELIABLE)
+    ros.node.create_subscription(WorldStatus, "world_status", world.append, RELIABLE)
+    launch("twbr_control", "controller_node", "-p", f"collision_monitor.enabled:={str(monitor).lower()}",
+           params=("controller.yaml",))
+    sim = launch("twbr_sim", "sim_node", "-p", f"scenario:={scenario}", "-p", "wait_for_subscribers:=1",
+                 params=SIM_PARAMS)
+    foreign = ros.node.create_publisher(Twist, "cmd_vel", 10)
+    push = Twist()
+    push.linear.x = 0.8
+    deadline = time.monotonic() + 120.0
+    while sim.running and time.monotonic() < deadline:
+        foreign.publish(push)
+        ros.executor.spin_once(timeout_sec=0.001)
+    assert sim.wait(timeout=5) == 0, sim.output
+    ros.spin_for(0.5)
+    clearance = min(w.clearance for w in world)
+    driven = max(s.velocity for s in states)
+    assert driven > 0.5, driven  # the foreign command did drive the robot
+    assert not any(s.fallen for s in states)
+    if monitor:
+        assert 0.0 < clearance < 0.2 and world[-1].collision_count == 0, clearance  # stopped short of it
+        assert sum(s.collision_limited for s in states) > 100
+    else:
+        assert clearance < 0.0 and world[-1].collision_count >= 1, clearance
+        assert not any(s.collision_limited for s in states)
+    print(f"collision monitor {'on' if monitor else 'off'}: min clearance {clearance:.3f} m")

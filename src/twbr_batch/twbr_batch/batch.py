@@ -39,6 +39,7 @@ from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_Y
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
 from twbr_control.cascade import settings_vector as control_vector
+from twbr_control.collision_monitor import allowed_speed
 from twbr_control.controller_params import resolve as resolve_controller
 from twbr_control.estimator import E_CALIBRATING, E_PITCH, E_PITCH_RATE, E_VELOCITY_ESTIMATE, estimator_update, uses_estimator
 from twbr_control.estimator import N_MEMORY as N_ESTIMATOR_MEMORY
@@ -121,6 +122,7 @@ PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 RUN_LAYOUT = Layout((
     "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
     "target_speed", "turn_interval", "capture_radius", "ring_rows", "sensors", "estimate", "friction",
+    "monitor", "footprint", "stop_margin", "deceleration", "reaction_time",
 ))
 U_H = RUN_LAYOUT["h"]
 U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
@@ -136,6 +138,11 @@ U_RING_ROWS = RUN_LAYOUT["ring_rows"]
 U_SENSORS = RUN_LAYOUT["sensors"]  # the sensors are not ideal: read them through their kernels
 U_ESTIMATE = RUN_LAYOUT["estimate"]  # pitch (and speed) from the controller's estimator
 U_FRICTION = RUN_LAYOUT["friction"]  # traction.friction: lift-off and slip are counted; 0: not counted
+U_MONITOR = RUN_LAYOUT["monitor"]  # the controller's collision monitor (collision_monitor.*) is on
+U_FOOTPRINT = RUN_LAYOUT["footprint"]
+U_STOP_MARGIN = RUN_LAYOUT["stop_margin"]
+U_DECELERATION = RUN_LAYOUT["deceleration"]
+U_REACTION_TIME = RUN_LAYOUT["reaction_time"]
 # Per-robot result columns.
 # The first collision's obstacle (-1: none) and where the robot was when that obstacle last came into the
 # detection range (t [s], x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), for the avoidability check;
@@ -145,6 +152,7 @@ RESULT_LAYOUT = Layout((
     "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
     "samples", "physics_steps", "hit_obstacle", ("detected", 6), "pitch_abs_max_settled", "final_distance",
     "stuck_at_end", "lift_events", "slip_events", "lifted_time", "slipping_time", "pitch_error_square_sum",
+    "collision_limited",
 ))
 Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
 Z_COLLISIONS = RESULT_LAYOUT["collisions"]
@@ -163,6 +171,7 @@ Z_FINAL_DISTANCE = RESULT_LAYOUT["final_distance"]
 Z_STUCK_AT_END = RESULT_LAYOUT["stuck_at_end"]
 Z_LIFT_EVENTS = RESULT_LAYOUT["lift_events"]
 Z_SLIP_EVENTS = RESULT_LAYOUT["slip_events"]
+Z_COLLISION_LIMITED = RESULT_LAYOUT["collision_limited"]  # samples whose command the collision monitor lowered
 Z_LIFTED_TIME = RESULT_LAYOUT["lifted_time"]  # [s]
 Z_SLIPPING_TIME = RESULT_LAYOUT["slipping_time"]  # [s]
 Z_PITCH_ERROR_SQUARES = RESULT_LAYOUT["pitch_error_square_sum"]  # sum over samples of (pitch used - true)^2
@@ -196,7 +205,7 @@ N_TRACE = len(TRACE_LAYOUT)
 # the sample (computed there in lanes, vectorised; else by the sample itself).
 LOOP_LAYOUT = Layout((
     "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
-    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded", "derived",
+    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded", "derived", "world_t",
 ))
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
@@ -214,6 +223,7 @@ L_COMMAND_STAMP = LOOP_LAYOUT["command_stamp"]
 L_NEW_PLAN = LOOP_LAYOUT["new_plan"]
 L_COMMANDED = LOOP_LAYOUT["commanded"]
 L_DERIVED = LOOP_LAYOUT["derived"]
+L_WORLD_T = LOOP_LAYOUT["world_t"]  # the last world instant: positions[j] are the obstacles then [s]
 N_LOOP = len(LOOP_LAYOUT)
 
 
@@ -338,6 +348,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
     sensors = run[U_SENSORS] != 0.0
     estimate = run[U_ESTIMATE] != 0.0
     friction = run[U_FRICTION]
+    monitor = run[U_MONITOR] != 0.0 and radii.shape[0] > 0 and has_target  # as planner_reference
     derive = reads_derivative(run)
     c = c.copy()
     for q in range(lo, hi):
@@ -390,6 +401,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
         if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
             loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
             obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
+            loop[j, L_WORLD_T] = t
             collisions_before = tally[j, W_COLLISIONS]
             clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
             results[j, Z_MIN_CLEARANCE] = min(results[j, Z_MIN_CLEARANCE], clearance)
@@ -435,7 +447,14 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
             loop[j, L_W_REF] = w_ref
             loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
         hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
-        cascade_compute(c, control[j], control_out[j], t, loop[j, L_V_REF], loop[j, L_W_REF], velocity, yaw_rate, pitch,
+        v_ref = loop[j, L_V_REF]
+        if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor, on the world's list
+            v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], obstacle_velocity[j], radii,
+                                  t - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION],
+                                  run[U_REACTION_TIME])
+            if v_ref != loop[j, L_V_REF]:
+                results[j, Z_COLLISION_LIMITED] += 1
+        cascade_compute(c, control[j], control_out[j], t, v_ref, loop[j, L_W_REF], velocity, yaw_rate, pitch,
                         pitch_rate, loop[j, L_COMMANDED] == 0.0, hold, loop[j, L_COMMAND_STAMP])
         true_pitch = states[j, S_TH]
         results[j, Z_PITCH_MIN] = min(results[j, Z_PITCH_MIN], true_pitch)
@@ -660,6 +679,10 @@ def run_batch(
         "turn_interval": tgt.turn_interval if tgt else 1.0, "capture_radius": tgt.capture_radius if tgt else 0.0,
         "ring_rows": progress_capacity(planner_cfg["stuck_time"], planner_rate),
         "sensors": 0.0, "estimate": 0.0, "friction": 0.0,
+        "monitor": control_cfg["collision_monitor.enabled"], "footprint": control_cfg["collision_monitor.footprint_radius"],
+        "stop_margin": control_cfg["collision_monitor.stop_margin"],
+        "deceleration": control_cfg["collision_monitor.deceleration"],
+        "reaction_time": control_cfg["collision_monitor.reaction_time"],
     })
     sim_cfg = validate_all(SENSOR_SPECS, {**defaults(SENSOR_SPECS), **(sim or {})})
     imu_c = imu_vector(sim_cfg, rate)

@@ -17,6 +17,7 @@ import numpy as np
 from twbr_common.params import default_of, defaults, validate_all
 from twbr_common.timing import Decimator
 from twbr_control.cascade import CascadeController, ControlOutput
+from twbr_control.collision_monitor import CollisionMonitor
 from twbr_control.controller_params import resolve as resolve_controller
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import VelocityCommand
@@ -122,10 +123,12 @@ def run_closed_loop(
 
 
 def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
-                      log: list | None = None) -> Reference:
+                      log: list | None = None, control: Mapping[str, Any] | None = None) -> Reference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
     planner node's default when None). Its settings are `planner` over what the simulator's scenario pins,
-    so it is built at the first step, when the simulator is known."""
+    so it is built at the first step, when the simulator is known. The controller node's collision monitor
+    (its settings from `control`, the defaults when None) limits the speed at every sample, on the world's
+    obstacles of the last planning instant, as the node has them from the world's last message."""
     from twbr_planner.apf import Obstacles
     from twbr_planner.planner import ApfPlanner, Target
     from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
@@ -138,6 +141,7 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
     # No message is lost here, so the command never times out.
     command = VelocityCommand(timeout=math.inf)
     held: dict[str, Any] = {"core": None}
+    monitor = CollisionMonitor(resolve_controller(control))
 
     def reference(t: float, sim: Simulator) -> tuple[float, float, float | None]:
         if held["core"] is None:
@@ -148,12 +152,18 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
             world = sim.world
             state = world.target() if world is not None else None
             target = Target(state.x, state.y, *state.velocity) if state is not None else None
-            obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in world.obstacles()])
+            listed = world.obstacles() if world else []
+            obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in listed])
                          if world else Obstacles.empty())
+            if listed:
+                monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
             out = held["core"].step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
             if log is not None:
                 log.append(out)
             command.offer(t, out.velocity_cmd, out.yaw_rate_cmd)
+        if not never_commanded:
+            odom = sim.sense().encoders
+            v_ref, _ = monitor.limit(t, v_ref, odom[J_X], odom[J_Y], odom[J_YAW])
         return v_ref, w_ref, None if never_commanded else command.since
 
     return reference

@@ -100,11 +100,15 @@ def _header(data: bytes) -> tuple[str, Time, int] | None:
 
 
 class OdomTwist(NamedTuple):
-    """What the controller takes from odom: the stamp, forward speed [m/s] and yaw rate [rad/s]."""
+    """What the controller takes from odom: the stamp, forward speed [m/s] and yaw rate [rad/s], and the pose
+    (x, y [m], orientation x, y, z, w) its collision monitor places the robot with."""
 
     stamp: Time
     velocity: float
     yaw_rate: float
+    x: float = 0.0
+    y: float = 0.0
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
 
 
 # Odometry after child_frame_id: pose.pose (position 3, orientation 4 doubles), pose.covariance (36),
@@ -134,12 +138,15 @@ def _plain_odom_twist(data: bytes) -> OdomTwist | None:
     pose = None if child_end is None else _odom_pose_offset(data, child_end)
     if pose is None:
         return None
+    x, y, _z, qx, qy, qz, qw = _unpack(order, "7d", data, pose)
     vx, _vy, _vz, _wx, _wy, wz = _unpack(order, "6d", data, pose + _ODOM_TWIST_OFFSET)
-    return OdomTwist(stamp, vx, wz)
+    return OdomTwist(stamp, vx, wz, x, y, (qx, qy, qz, qw))
 
 
 def odom_twist_of(msg: Odometry) -> OdomTwist:
-    return OdomTwist(msg.header.stamp, msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+    p, o = msg.pose.pose.position, msg.pose.pose.orientation
+    return OdomTwist(msg.header.stamp, msg.twist.twist.linear.x, msg.twist.twist.angular.z, p.x, p.y,
+                     (o.x, o.y, o.z, o.w))
 
 
 class OdomPose(NamedTuple):

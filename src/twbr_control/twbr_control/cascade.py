@@ -131,6 +131,7 @@ class ControlOutput:
     gyro_bias: float = 0.0  # the estimator's gyro bias about y [rad/s]
     accelerometer_pitch: float = 0.0  # the accelerometer's pitch, forward acceleration taken off [rad]
     calibrating: bool = False  # the estimator was calibrating: zero torque
+    collision_limited: bool = False  # the collision monitor lowered velocity_ref (twbr_control.collision_monitor)
 
 
 @inline_kernel

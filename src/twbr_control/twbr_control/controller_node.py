@@ -1,7 +1,8 @@
 """controller_node: the cascaded PID controller as a ROS 2 node (a thin adapter over twbr_control.cascade).
 
-Subscribes odom and imu (sensor-data QoS; read from their bytes, twbr_common.cdr) and cmd_vel (Twist, or TwistStamped with
-enable_stamped_cmd_vel); publishes wheel_torque_cmd, stamped with the state it was computed from (what
+Subscribes odom and imu (sensor-data QoS; read from their bytes, twbr_common.cdr), cmd_vel (Twist, or TwistStamped with
+enable_stamped_cmd_vel) and obstacles (its collision monitor limits every cmd_vel's speed before the wheels,
+whoever sent it: twbr_control.collision_monitor); publishes wheel_torque_cmd, stamped with the state it was computed from (what
 a lockstep simulator waits for), and controller_state. It computes once per state, at most at `rate`,
 so it runs in sim time (use_sim_time, /clock) and in wall time alike. Service ~/enable (SetBool).
 
@@ -20,17 +21,18 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
-from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, odom_twist
+from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, obstacle_rows, odom_twist
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
-from twbr_common.guard import RATE_LIMIT
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, stamp_ns, stamp_seconds
+from twbr_common.guard import POSITION_LIMIT, RATE_LIMIT
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_ns, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
+from twbr_control.collision_monitor import CollisionMonitor
 from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent, check_within_robot
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import Action, RobotState, StateSync, VelocityCommand
-from twbr_msgs.msg import ControllerState, WheelTorques
+from twbr_msgs.msg import ControllerState, ObstacleArray, WheelTorques
 from twbr_sim.robot_limits import limits_from_file
 
 
@@ -46,11 +48,13 @@ class ControllerNode(Node):
         self.estimator = PitchEstimator(cfg)
         self.sync = StateSync(cfg["rate"], cfg["sync_tolerance"])
         self.command = VelocityCommand(cfg["cmd_vel_timeout"])
+        self.monitor = CollisionMonitor(cfg)
         self.inputs = input_streams(self)
         self.inputs.add("odom", cfg["state_timeout"], limit=RATE_LIMIT)
         self.inputs.add("imu", cfg["state_timeout"], limit=RATE_LIMIT)
         stamped = cfg["enable_stamped_cmd_vel"]
         self.inputs.add("cmd_vel", cfg["cmd_vel_timeout"], require_stamp=stamped, limit=RATE_LIMIT)
+        self.inputs.add("obstacles", cfg["collision_monitor.obstacle_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
         self._restart()
 
@@ -63,6 +67,8 @@ class ControllerNode(Node):
             self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, COMMAND_QOS)
         else:
             self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_QOS)
+        if cfg["collision_monitor.enabled"]:
+            self.create_subscription(ObstacleArray, "obstacles", self._on_obstacles_bytes, WORLD_QOS, raw=True)
         self.create_service(SetBool, "~/enable", self._on_enable)
         self.graph = GraphWatch(self, ["wheel_torque_cmd", "controller_state"])
         self.parameter_revision = 0
@@ -90,6 +96,8 @@ class ControllerNode(Node):
         self._velocity = 0.0  # the last admitted odom's speed, for the estimator [m/s]
         self._estimated = False
         self.command.reset()
+        self.monitor.reset()
+        self._pose: tuple[float, float, float, float] | None = None  # (stamp, x, y, yaw) of the last odom
         self._last_command: WheelTorques | None = None
         self._stamps: dict[str, Time] = {}
 
@@ -114,6 +122,7 @@ class ControllerNode(Node):
         stamp = stamp_seconds(odom.stamp)
         if self._admit("odom", stamp, (odom.velocity, odom.yaw_rate)):
             self._velocity = odom.velocity
+            self._pose = (stamp, odom.x, odom.y, rpy_from_quaternion(*odom.orientation)[2])
             self._stamps["odom"] = odom.stamp
             self._act(*self.sync.offer_odom(stamp, odom.velocity, odom.yaw_rate))
 
@@ -142,6 +151,17 @@ class ControllerNode(Node):
         self._stamps["imu"] = imu.stamp
         self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate, velocity))
 
+    def _on_obstacles_bytes(self, data: bytes) -> None:
+        obstacles = obstacle_rows(data)
+        if obstacles is None:
+            self.inputs.dropped("obstacles", "not a twbr_msgs/ObstacleArray")
+            return
+        stamp, rows = stamp_seconds(obstacles.stamp), obstacles.rows
+        if (rows[:, 5] < 0.0).any():
+            self.inputs.dropped("obstacles", "negative radius")
+        elif self._admit("obstacles", stamp, rows[:, 1:]):
+            self.monitor.obstacles(stamp, rows)
+
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:
         values = (twist.linear.x, twist.angular.z)
         if self._admit("cmd_vel", stamp, values):
@@ -165,6 +185,7 @@ class ControllerNode(Node):
 
     def _retune(self, cfg: dict) -> None:
         self.controller.retune(cfg)
+        self.monitor.retune(cfg)
         self.parameter_revision += 1
 
     # --- control ------------------------------------------------------------------------------
@@ -173,6 +194,10 @@ class ControllerNode(Node):
             self.pub_torque.publish(self._last_command)
         elif action is Action.COMPUTE and state is not None:
             velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
+            limited = False
+            if self._pose is not None and not stale:
+                _, x, y, yaw = self._pose
+                velocity_ref, limited = self.monitor.limit(state.stamp, velocity_ref, x, y, yaw)
             out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale,
                                           hold=self._estimated and self.estimator.calibrating,
@@ -180,6 +205,8 @@ class ControllerNode(Node):
             if self._estimated:
                 out = replace(out, pitch_estimated=True, gyro_bias=self.estimator.bias,
                               accelerometer_pitch=self.estimator.accelerometer_pitch)
+            if limited:
+                out = replace(out, collision_limited=True)
             # The newer of the two stamps, exactly as received (a lockstep simulator compares nanoseconds).
             self._publish(out, max(self._stamps.values(), key=stamp_ns))
 

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
+from twbr_control.collision_monitor import MONITOR_SPECS
 from twbr_control.lqr import LQR_SPECS
 from twbr_sim.robot_limits import ROBOT_FILE_SPEC, RobotLimits, at_most, limits_from_file
 
@@ -80,6 +81,7 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " integration step", "s", 0.001, 1.0),
     *GAIN_SPECS,
     *tunable(*LQR_SPECS),
+    *MONITOR_SPECS,
 )
 
 NODE_SPECS: tuple[ParamSpec, ...] = (

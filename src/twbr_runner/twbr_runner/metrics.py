@@ -26,6 +26,7 @@ CONTROLLER_FIELDS = (
     "velocity_ref", "velocity", "yaw_rate_ref", "yaw_rate", "pitch_ref", "pitch", "pitch_rate",
     "common_torque", "differential_torque", "left_torque", "right_torque", "dt",
     "pitch_ref_limited", "torque_saturated", "cmd_vel_stale", "fallen", "enabled", "pitch_estimated",
+    "collision_limited",
 )
 
 
@@ -72,7 +73,8 @@ _VALUES: dict[str, Any] = {
                         m.twist.twist.linear.x, m.twist.twist.angular.z),
     "/target": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
     "/planner_state": lambda m: (m.velocity_cmd, m.yaw_rate_cmd, m.distance_to_target),
-    "/controller_state": lambda m: tuple(float(getattr(m, name)) for name in CONTROLLER_FIELDS),
+    # (a field a bag recorded before it existed reads as 0)
+    "/controller_state": lambda m: tuple(float(getattr(m, name, 0.0)) for name in CONTROLLER_FIELDS),
     "/joint_states": lambda m: tuple(m.effort),
     "/world_status": lambda m: (m.target_distance,),
     "/sim_status": lambda m: (m.pitch,),
@@ -311,6 +313,7 @@ class RunMetrics:
     max_delivered_torque_nm: float
     torque_saturated_samples: int
     cmd_vel_stale_samples: int
+    collision_limited_samples: int  # commands the collision monitor lowered (twbr_control.collision_monitor)
     lockstep_timeouts: int | None
     commands_rejected: int | None
     # Traction, from the simulator's last sim_status (None from a driver that does not report it)
@@ -435,6 +438,7 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
         max_delivered_torque_nm=delivered,
         torque_saturated_samples=int(c["torque_saturated"].sum()),
         cmd_vel_stale_samples=int(c["cmd_vel_stale"].sum()),
+        collision_limited_samples=int(c["collision_limited"].sum()),
         lockstep_timeouts=int(last_status.lockstep_timeouts) if last_status else None,
         commands_rejected=int(last_status.commands_rejected) if last_status else None,
         wheel_lift_events=int(last_status.lift_events) if last_status else None,
