@@ -226,6 +226,8 @@ def test_controller_killed_the_robot_side_zeroes_the_torque_reports_it_and_nothi
         assert time.monotonic() - started < 5.0
 
 
+@pytest.mark.long  # two runs through the runner (~60 s): make test-long; the parts are unit-tested in test_cdr,
+# test_guard and test_metrics_admission
 def test_a_flood_of_large_obstacle_arrays_does_not_change_the_run(tmp_path, ros_env):
     """5,000 obstacles per message at ~48 Hz, unstamped (as `ros2 topic pub` sends them), through the runner.
     Before: 6 lockstep timeouts and a later arrival (`make demo`: 77.0 s against 69.65 s); the metrics of a

@@ -77,7 +77,7 @@ def _check_wrong_type_reported(launch, ros, ros_env, tmp_path) -> None:
         recorder.stop(timeout=10)
 
 
-@pytest.mark.parametrize("apart", [0.0, 0.5])
+@pytest.mark.parametrize("apart", [0.0, pytest.param(0.5, marks=pytest.mark.long)])  # 0.5 s: make test-long
 def test_two_runners_started_together_never_both_measure_a_mixed_graph(ros_env, tmp_path, apart):
     """Two runners on one --domain, started together or 0.5 s apart. Before: both ran (real-time factor
     0.09, 168 lockstep timeouts) and both wrote `reached: false` with no word of the conflict. Now the later

@@ -164,3 +164,20 @@ def test_would_be_due_answers_as_due_without_taking_the_instant():
         assert answer == take.due(t)
         if answer:
             peek.due(t)
+
+
+def test_the_stamp_is_judged_before_the_values_and_arrays_are_judged_whole():
+    """A flood of 5,000-obstacle arrays with bad stamps is refused without reading the values; an array's
+    values are judged as the same numbers in a list are."""
+    import numpy as np
+
+    g = InputGuard(0.5, limit=1e5, future_tolerance=0.1)
+    bad = np.full((5000, 5), np.nan)
+    assert g.offer(0.0, bad, now=10.0) is Verdict.UNSTAMPED  # no stamp, whatever the values
+    assert g.offer(20.0, bad, now=10.0) is Verdict.FUTURE
+    assert g.offer(10.0, bad, now=10.0) is Verdict.NON_FINITE
+    assert g.offer(10.0, np.full((3, 5), 2e5), now=10.0) is Verdict.IMPLAUSIBLE
+    ok = np.arange(15.0).reshape(3, 5)
+    assert g.offer(10.0, ok, now=10.0) is Verdict.ACCEPTED
+    assert InputGuard(0.5, limit=1e5).offer(10.0, ok.ravel().tolist(), now=10.0) is Verdict.ACCEPTED
+    assert g.offer(10.0, np.empty((0, 5)), now=10.0) is Verdict.ACCEPTED  # an empty obstacle list
