@@ -65,7 +65,7 @@ mkdir -p log
 # the Python modules and config files are links into the checkout, so a make target whose sources did not
 # change starts its work at once (colcon itself takes 11-30 s to find out that nothing changed).
 built=build/.twbr-built
-sources="$( (echo "$underlay"; find src config colcon.meta -type f | LC_ALL=C sort) | sha256sum | cut -c1-16)"
+sources="$( (echo "$underlay $want"; find src config colcon.meta -type f | LC_ALL=C sort) | sha256sum | cut -c1-16)"
 if [ -f "$built" ] && [ -d install ] && [ "$(cat "$built")" = "$sources" ] \
     && [ -z "$(find src config colcon.meta -newer "$built" -print -quit)" ]; then
   exit 0
