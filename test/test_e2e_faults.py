@@ -50,32 +50,38 @@ def injected_counts(proc: NodeProcess) -> dict[str, int]:
     return json.loads(proc.output.strip().splitlines()[0])
 
 
+def run_beside_injector(tmp_path: Path, env: dict[str, str], *params: str) -> tuple[int, str, str, dict[str, int]]:
+    """The course through the runner into tmp_path/runs, the injector (with `params`) joining once the graph
+    runs (the runner refuses to start beside one): (exit code, stdout, stderr, what the injector sent)."""
+    started = time.monotonic()
+    runner = subprocess.Popen(
+        [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
+         "--no-figures"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    neighbour = None
+    try:
+        while time.monotonic() - started < 60 and not list((tmp_path / "runs").glob("*/logs/sim.err")):
+            time.sleep(0.05)
+        neighbour = injector(env, tmp_path, *params)
+        out, err = runner.communicate(timeout=300)
+    finally:
+        if runner.poll() is None:  # the run hung: stop it (its nodes go with it) and the injector
+            runner.kill()
+            runner.wait()
+            if neighbour is not None:
+                neighbour.stop()
+    return runner.returncode, out, err, injected_counts(neighbour)
+
+
 def drop_warnings(log: str, stream: str) -> list[str]:
     return re.findall(rf"dropped {stream}: [^\n]*", log)
 
 
 def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ros_env):
     started = time.monotonic()
-    runner = subprocess.Popen(
-        [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
-         "--no-figures"], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # The hostile neighbour joins once the graph runs (the runner refuses to start beside one).
-    garbage = None
-    try:
-        while time.monotonic() - started < 60 and not list((tmp_path / "runs").glob("*/logs/sim.err")):
-            time.sleep(0.05)
-        garbage = injector(ros_env, tmp_path, "use_sim_time:=true")
-        out, err = runner.communicate(timeout=300)
-    finally:
-        if runner.poll() is None:  # the run hung: stop it (its nodes go with it) and the injector
-            runner.kill()
-            runner.wait()
-            if garbage is not None:
-                garbage.stop()
+    returncode, out, err, sent = run_beside_injector(tmp_path, ros_env, "use_sim_time:=true")
     wall = time.monotonic() - started
-    sent = injected_counts(garbage)
     # A run beside a foreign publisher on its topics is not its graph's alone: it says so and exits 1.
-    assert runner.returncode == 1, out + err
+    assert returncode == 1, out + err
     (run_dir,) = (tmp_path / "runs").iterdir()
     m = json.loads((run_dir / "metrics.json").read_text())
     assert any(f.startswith("/fault_injector publishing /odom") for f in m["foreign_publishers"]), m
@@ -234,22 +240,9 @@ def test_a_flood_of_large_obstacle_arrays_does_not_change_the_run(tmp_path, ros_
     467 MB bag took 2.5 min and 5 GB. Now: the run of an undisturbed graph, the flood refused by its stamp
     before its 5,000 rows are judged, named as a foreign publisher (exit 1)."""
     quiet = _run_course(tmp_path / "quiet", ros_env)
-    started = time.monotonic()
-    runner = subprocess.Popen(
-        [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
-         "--no-figures"], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    flood = None
-    try:
-        while time.monotonic() - started < 60 and not list((tmp_path / "runs").glob("*/logs/sim.err")):
-            time.sleep(0.05)
-        flood = injector(ros_env, tmp_path, "use_sim_time:=true", "rate:=48.0", "flood_obstacles:=5000")
-        out, err = runner.communicate(timeout=300)
-    finally:
-        if runner.poll() is None:
-            runner.kill()
-            runner.wait()
-        sent = injected_counts(flood) if flood is not None else {}
-    assert runner.returncode == 1 and "/fault_injector" in err, out + err  # reported, not fatal
+    returncode, out, err, sent = run_beside_injector(tmp_path, ros_env, "use_sim_time:=true", "rate:=48.0",
+                                                     "flood_obstacles:=5000")
+    assert returncode == 1 and "/fault_injector" in err, out + err  # reported, not fatal
     (run_dir,) = (tmp_path / "runs").iterdir()
     m = json.loads((run_dir / "metrics.json").read_text())
     assert sent.get("obstacles:flood", 0) >= 100, sent

@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 
+import numpy as np
+
 from twbr_common.guard import DropReport, InputGuard
 
 
@@ -52,3 +54,18 @@ class InputStreams:
 
     def dropped(self, stream: str, reason: str, detail: str = "") -> None:
         self.drops.dropped(stream, reason, detail)
+
+    def admit_obstacles(self, data: bytes, now: float) -> tuple[float, np.ndarray] | None:
+        """A serialized twbr_msgs/ObstacleArray on the stream "obstacles": (its stamp [s], rows of id, x, y,
+        vx, vy, radius) when admitted; None when refused (counted and warned about, as every input)."""
+        from twbr_common.cdr import obstacle_rows
+
+        obstacles = obstacle_rows(data)
+        if obstacles is None:
+            self.dropped("obstacles", "not a twbr_msgs/ObstacleArray")
+            return None
+        stamp, rows = obstacles.stamp.sec + obstacles.stamp.nanosec * 1e-9, obstacles.rows
+        if (rows[:, 5] < 0.0).any():
+            self.dropped("obstacles", "negative radius")
+            return None
+        return (stamp, rows) if self.admit("obstacles", stamp, rows[:, 1:], now) else None

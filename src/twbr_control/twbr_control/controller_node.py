@@ -21,7 +21,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu
 from std_srvs.srv import SetBool
 
-from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, obstacle_rows, odom_twist
+from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, odom_twist
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT, RATE_LIMIT
@@ -152,14 +152,9 @@ class ControllerNode(Node):
         self._act(*self.sync.offer_imu(stamp, pitch, pitch_rate, velocity))
 
     def _on_obstacles_bytes(self, data: bytes) -> None:
-        obstacles = obstacle_rows(data)
-        if obstacles is None:
-            self.inputs.dropped("obstacles", "not a twbr_msgs/ObstacleArray")
-            return
-        stamp, rows = stamp_seconds(obstacles.stamp), obstacles.rows
-        if (rows[:, 5] < 0.0).any():
-            self.inputs.dropped("obstacles", "negative radius")
-        elif self._admit("obstacles", stamp, rows[:, 1:]):
+        admitted = self.inputs.admit_obstacles(data, self._now())
+        if admitted is not None:
+            stamp, rows = admitted
             self.monitor.obstacles(stamp, rows)
 
     def _take_cmd_vel(self, stamp: float, twist: Twist) -> None:

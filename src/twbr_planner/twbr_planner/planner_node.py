@@ -27,7 +27,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from visualization_msgs.msg import MarkerArray
 
-from twbr_common.cdr import OdomPose, header_stamp_seconds, obstacle_rows, odom_pose
+from twbr_common.cdr import OdomPose, header_stamp_seconds, odom_pose
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
@@ -121,15 +121,9 @@ class PlannerNode(Node):
             self._plan_pending()
 
     def _on_obstacles_bytes(self, data: bytes) -> None:
-        obstacles = obstacle_rows(data)
-        if obstacles is None:
-            self.inputs.dropped("obstacles", "not a twbr_msgs/ObstacleArray")
-            return
-        stamp, rows = stamp_seconds(obstacles.stamp), obstacles.rows
-        if (rows[:, 5] < 0.0).any():
-            self.inputs.dropped("obstacles", "negative radius")
-        elif self._admit("obstacles", stamp, rows[:, 1:]):
-            self._obstacles = (stamp, rows)
+        admitted = self.inputs.admit_obstacles(data, self._now())
+        if admitted is not None:
+            self._obstacles = admitted
             self._plan_pending()
 
     def _on_odom_bytes(self, data: bytes) -> None:

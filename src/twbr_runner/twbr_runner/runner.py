@@ -291,6 +291,10 @@ class Progress:
                                   for p in self.node.get_publishers_info_by_topic(resolved))
                 for who, count in sorted(by_node.items()):
                     name = who.rsplit("/", 1)[-1]
+                    if name == UNKNOWN_NODE:
+                        # An endpoint whose participant is still being discovered (its node's name comes a
+                        # moment later) or has just left (our own simulator at the end): named at the next look
+                        continue
                     if name not in ours:
                         found.append(f"{who} publishing {resolved}")
                     elif count > 1:
@@ -305,6 +309,10 @@ class Progress:
         self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+# The node name the graph API gives an endpoint whose participant's node is not (or no longer) known.
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
 
 def runner_claim(node_name: str) -> tuple[int, int] | None:
