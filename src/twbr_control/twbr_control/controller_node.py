@@ -97,7 +97,7 @@ class ControllerNode(Node):
         self._estimated = False
         self.command.reset()
         self.monitor.reset()
-        self._pose: tuple[float, float, float, float] | None = None  # (stamp, x, y, yaw) of the last odom
+        self._pose: tuple | None = None  # (stamp, x, y, orientation) of the last odom
         self._last_command: WheelTorques | None = None
         self._stamps: dict[str, Time] = {}
 
@@ -122,7 +122,7 @@ class ControllerNode(Node):
         stamp = stamp_seconds(odom.stamp)
         if self._admit("odom", stamp, (odom.velocity, odom.yaw_rate)):
             self._velocity = odom.velocity
-            self._pose = (stamp, odom.x, odom.y, rpy_from_quaternion(*odom.orientation)[2])
+            self._pose = (stamp, odom.x, odom.y, odom.orientation)  # yaw read only when the monitor needs it
             self._stamps["odom"] = odom.stamp
             self._act(*self.sync.offer_odom(stamp, odom.velocity, odom.yaw_rate))
 
@@ -190,9 +190,10 @@ class ControllerNode(Node):
         elif action is Action.COMPUTE and state is not None:
             velocity_ref, yaw_rate_ref, stale = self.command.at(state.stamp)
             limited = False
-            if self._pose is not None and not stale:
-                _, x, y, yaw = self._pose
-                velocity_ref, limited = self.monitor.limit(state.stamp, velocity_ref, x, y, yaw)
+            if self._pose is not None and not stale and velocity_ref != 0.0 and self.monitor.watching(state.stamp):
+                _, x, y, orientation = self._pose
+                velocity_ref, limited = self.monitor.limit(state.stamp, velocity_ref, x, y,
+                                                           rpy_from_quaternion(*orientation)[2])
             out = self.controller.compute(state.stamp, velocity_ref, yaw_rate_ref, state.velocity,
                                           state.yaw_rate, state.pitch, state.pitch_rate, cmd_vel_stale=stale,
                                           hold=self._estimated and self.estimator.calibrating,
