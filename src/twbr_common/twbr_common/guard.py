@@ -98,7 +98,7 @@ class InputGuard:
     def _judge(self, stamp: float, values: Iterable[float] | np.ndarray, now: float) -> Verdict:
         # The stamp first: it is one number, and a flood of large messages with bad stamps (an obstacle
         # array of 5,000 entries 48 times a second) is refused without reading its values.
-        verdict = self.judge_stamp(stamp, now)
+        verdict = self._judge_stamp(stamp, now)
         if verdict is not Verdict.ACCEPTED:
             return verdict
         if isinstance(values, np.ndarray):
@@ -114,7 +114,7 @@ class InputGuard:
             return Verdict.IMPLAUSIBLE
         return Verdict.ACCEPTED
 
-    def judge_stamp(self, stamp: float, now: float) -> Verdict:
+    def _judge_stamp(self, stamp: float, now: float) -> Verdict:
         """The stamp's rules alone (no stamp, stale, ahead of the clock, out of order)."""
         if self.require_stamp:
             if stamp <= 0.0 and now > self.timeout:

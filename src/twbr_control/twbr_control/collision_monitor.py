@@ -5,9 +5,9 @@ Whoever sent the command (our planner, a teleop, a foreign publisher), the forwa
 limited to what stops the robot, braking at `deceleration`, `stop_margin` short of the first obstacle in
 its way: the obstacles it knows (the planner's `obstacles`, moved along their velocity to the state's
 instant) whose disc, grown by the robot's footprint, lies across the straight line the robot drives along
-(forward or backward, as the command's sign says). The speed allowed at a free distance d is
-sqrt(2 * deceleration * (d - stop_margin)): zero at the margin (the stop zone), less than the command as
-the robot approaches (the slow-down zone). Turning is never limited: the footprint is a disc, and turning
+(forward or backward, as the command's sign says). The speed allowed at a free distance d is the v with
+v * reaction_time + v^2 / (2 deceleration) = d - stop_margin: zero at the margin (the stop zone), less
+than the command as the robot approaches (the slow-down zone). Turning is never limited: the footprint is a disc, and turning
 in place moves it nowhere. It cannot stop an obstacle from driving into a robot that stands still.
 
 One compiled kernel (`allowed_speed`) that the controller node and the batch engine call alike.
@@ -40,7 +40,7 @@ MONITOR_SPECS: tuple[ParamSpec, ...] = (
                   " (a balancing robot leans back first)", "s", 0.0, 10.0),
     ),
     ParamSpec("collision_monitor.obstacle_timeout", 1.0, "an obstacle list older than this (against the state's"
-              " stamp) is not used: the monitor then passes commands as they are and says so", "s", 0.01, 60.0),
+              " stamp) is not used: the monitor then passes commands as they are", "s", 0.01, 60.0),
 )
 
 

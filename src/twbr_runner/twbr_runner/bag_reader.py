@@ -50,10 +50,10 @@ def read_messages(bag_dir: Path, topics: Iterable[str] | None = None,
 
 
 def iter_messages(bag_dir: Path, topics: Iterable[str] | None = None, undecodable: Counter | None = None,
-                  raw: Iterable[str] = (), with_topic: bool = True) -> Iterator[tuple]:
-    """(topic, receive time ns, message) in receive order, one at a time; (receive time, message) without
-    the topic. Topics in `raw` come as their CDR bytes (the caller reads what it needs from them: a large
-    array decoded field by field is slow and large).
+                  raw: Iterable[str] = ()) -> Iterator[tuple[str, int, Any]]:
+    """(topic, receive time ns, message) in receive order, one at a time. Topics in `raw` come as their
+    CDR bytes (the caller reads what it needs from them: a large array decoded field by field is slow and
+    large).
 
     A recorder keeps the bytes it received, as they came: a message that does not decode as its topic's
     type (malformed bytes from a neighbour on the network) is left out and counted per topic in
@@ -66,8 +66,7 @@ def iter_messages(bag_dir: Path, topics: Iterable[str] | None = None, undecodabl
             decoders: dict[int, Any] = {}
             for schema, channel, message in make_reader(f).iter_messages(topics=wanted, log_time_order=True):
                 if channel.topic in raw:
-                    yield (channel.topic, message.log_time, message.data) if with_topic else (
-                        message.log_time, message.data)
+                    yield channel.topic, message.log_time, message.data
                     continue
                 decode = decoders.get(channel.id)
                 if decode is None:
@@ -82,4 +81,4 @@ def iter_messages(bag_dir: Path, topics: Iterable[str] | None = None, undecodabl
                     if undecodable is not None:
                         undecodable[channel.topic] += 1
                     continue
-                yield (channel.topic, message.log_time, decoded) if with_topic else (message.log_time, decoded)
+                yield channel.topic, message.log_time, decoded

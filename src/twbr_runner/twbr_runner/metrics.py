@@ -248,7 +248,7 @@ def series_from_messages(messages: Mapping[str, list[tuple[int, Any]]]) -> RunSe
 def series_from_bag(bag_dir: Path, undecodable: Counter | None = None) -> RunSeries:
     """The series of a recorded run, streamed from its bag: /clock first (the bag's clock), then every
     measured topic message by message, obstacle arrays read from their bytes."""
-    clock = BagClock(list(iter_messages(bag_dir, ["/clock"], undecodable, with_topic=False)))
+    clock = BagClock([(received, msg) for _, received, msg in iter_messages(bag_dir, ["/clock"], undecodable)])
     builder = SeriesBuilder(clock)
     for topic, received, msg in iter_messages(bag_dir, [t for t in MEASURED_TOPICS if t != "/clock"], undecodable,
                                               raw=("/obstacles",)):
