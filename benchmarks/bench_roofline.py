@@ -39,7 +39,7 @@ from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
 components = {{"dynamics": "advance_upright", "controller": "cascade_compute", "planner": "plan_step",
-              "world": "assess_obstacles", "obstacles": "obstacle_positions_at", "target": "target_at",
+              "world": "assess_obstacles", "obstacles": "agents_at", "target": "target_at",
               "sample's derivative": "derivatives", "wheel loads": "wheel_loads"}}
 by_component = {{name: {{}} for name in components}}
 

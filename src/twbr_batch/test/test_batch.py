@@ -46,7 +46,8 @@ def test_batch_trajectories_equal_the_scalar_cores(name):
             assert z[batch.Z_REACHED_AT] == pytest.approx(row.time_to_reach_s, abs=1e-12)
 
 
-@pytest.mark.parametrize("name", ["dynamic_obstacles", "suite/head_on", "suite/trap_small", "suite/gap_1m"])
+@pytest.mark.parametrize("name", ["dynamic_obstacles", "suite/head_on", "suite/trap_small", "suite/gap_1m",
+                                  "suite/reactive_crowd", "suite/target_behind_wall"])
 def test_the_robust_planner_runs_the_same_in_the_batch_and_on_the_scalar_cores(name):
     # Its boundary following, evasion and safety filter are one compiled implementation too; varied layouts
     # (suite scenarios) are each seed's in both.

@@ -3,7 +3,9 @@
 A collision counts as unavoidable only if no admissible command sequence of the robot escapes the obstacle
 from the moment it came into the detection range: the robot a unicycle from the state it had then (position,
 heading, speed, yaw rate), within its speed, acceleration, braking, yaw-rate and yaw-acceleration limits,
-the obstacle on its straight line at its constant velocity. It is computed, not assumed: 199 manoeuvres are
+the obstacle on its own path (its straight line at its constant velocity, or the path its motion kind
+takes: twbr_sim.agents; an obstacle that reacts is taken on the path it would go with no robot in the
+world, as the robot's manoeuvre is not the one it reacted to). It is computed, not assumed: 199 manoeuvres are
 simulated to the horizon (steer to each of 24 headings at each of 5 speeds, with the yaw rate limit;
 hold each of 11 yaw rates at each of 5 speeds; and brake to a stop while turning to each of 24 headings
 then hold still), and the collision is avoidable when one of them keeps the footprint clear of the obstacle
@@ -42,16 +44,14 @@ class Limits:
 
 
 @kernel
-def _clear_throughout(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, mode, target_heading, target_speed,
-                      target_rate, horizon, dt):
+def _clear_throughout(x, y, yaw, v, w, path, reach, limits, mode, target_heading, target_speed, target_rate, dt):
     """Simulate one manoeuvre; True when the centre stays `reach` or more from the obstacle's centre.
 
     mode 0: steer to target_heading at target_speed; 1: hold target_rate at target_speed; 2: brake to a
     stop while steering to target_heading, then stay.
     """
     v_max, acc, brake, rate_max, yaw_acc = limits[0], limits[1], limits[2], limits[3], limits[4]
-    steps = int(horizon / dt)
-    for _ in range(steps):
+    for k in range(1, path.shape[0]):
         if mode == 1:
             w_cmd = target_rate
         else:
@@ -69,44 +69,51 @@ def _clear_throughout(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, mode, ta
         yaw += w * dt
         x += v * math.cos(yaw) * dt
         y += v * math.sin(yaw) * dt
-        ox += ovx * dt
-        oy += ovy * dt
-        if (x - ox) ** 2 + (y - oy) ** 2 < reach * reach:
+        if (x - path[k, 0]) ** 2 + (y - path[k, 1]) ** 2 < reach * reach:
             return False
     return True
 
 
 @kernel
-def _escape_exists(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, horizon, dt):
+def _escape_exists(x, y, yaw, v, w, path, reach, limits, dt):
     for k in range(HEADINGS):
         heading = yaw + 2.0 * math.pi * k / HEADINGS
         for i in range(SPEEDS):
             speed = limits[0] * (2.0 * i / (SPEEDS - 1) - 1.0)
-            if _clear_throughout(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, 0, heading, speed, 0.0, horizon,
-                                 dt):
+            if _clear_throughout(x, y, yaw, v, w, path, reach, limits, 0, heading, speed, 0.0, dt):
                 return True
-        if _clear_throughout(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, 2, heading, 0.0, 0.0, horizon, dt):
+        if _clear_throughout(x, y, yaw, v, w, path, reach, limits, 2, heading, 0.0, 0.0, dt):
             return True
     for k in range(YAW_RATES):
         rate = limits[3] * (2.0 * k / (YAW_RATES - 1) - 1.0)
         for i in range(SPEEDS):
             speed = limits[0] * (2.0 * i / (SPEEDS - 1) - 1.0)
-            if _clear_throughout(x, y, yaw, v, w, ox, oy, ovx, ovy, reach, limits, 1, 0.0, speed, rate, horizon, dt):
+            if _clear_throughout(x, y, yaw, v, w, path, reach, limits, 1, 0.0, speed, rate, dt):
                 return True
     return False
 
 
-def collision_avoidable(robot: tuple[float, float, float, float, float], obstacle: tuple[float, float, float, float],
-                        radius: float, robot_radius: float, limits: Limits, horizon: float = HORIZON) -> bool:
+def straight_path(obstacle: tuple[float, float, float, float], horizon: float = HORIZON) -> np.ndarray:
+    """The positions every DT [s] over `horizon` of an obstacle at (x, y) [m] moving at (vx, vy) [m/s]."""
+    k = np.arange(int(horizon / DT) + 1)[:, None] * DT
+    return np.asarray(obstacle[:2], dtype=float) + k * np.asarray(obstacle[2:4], dtype=float)
+
+
+def collision_avoidable(robot: tuple[float, float, float, float, float], obstacle: tuple[float, float, float, float]
+                        | np.ndarray, radius: float, robot_radius: float, limits: Limits,
+                        horizon: float = HORIZON) -> bool:
     """Whether an admissible manoeuvre keeps the footprint clear of the obstacle.
 
-    robot: (x, y, yaw, speed, yaw rate) when the obstacle came into range; obstacle: (x, y, vx, vy) then.
+    robot: (x, y, yaw, speed, yaw rate) when the obstacle came into range; obstacle: (x, y, vx, vy) then
+    (a straight path), or its path: positions every DT [s] from then on, (k, 2), over the horizon.
     """
-    if (robot[0] - obstacle[0]) ** 2 + (robot[1] - obstacle[1]) ** 2 < (radius + robot_radius) ** 2:
+    path = np.ascontiguousarray(obstacle, dtype=float)
+    if path.ndim == 1:
+        path = straight_path(tuple(path), horizon)
+    if (robot[0] - path[0, 0]) ** 2 + (robot[1] - path[0, 1]) ** 2 < (radius + robot_radius) ** 2:
         return False  # already touching
     lim = np.array([limits.v_max, limits.acceleration, limits.braking, limits.yaw_rate, limits.yaw_acceleration])
-    return bool(_escape_exists(*(float(v) for v in robot), *(float(v) for v in obstacle), radius + robot_radius, lim,
-                               horizon, DT))
+    return bool(_escape_exists(*(float(v) for v in robot), path, radius + robot_radius, lim, DT))
 
 
 OUTCOMES = ("success", "collision_avoidable", "collision_unavoidable", "fall", "trapped", "outrun", "late")

@@ -5,7 +5,7 @@ it held until step k+1; the planner and the world's assessment at their own rate
 sample by sample: their samples in parallel threads, then their physics in groups of robots stepped
 together in lanes (structure of arrays, vectorised over the robots). It calls the very kernels the scalar
 cores and so the nodes call (`dynamics.advance_upright(_lanes)`, `cascade.cascade_compute`, `planner.plan_step`, the world's
-`advance_segments`, `target_at`, `obstacle_positions_at`, `assess_obstacles`, the scenario's
+`advance_segments`, `target_at`, the agents' `agents_advance` and `agents_at`, `assess_obstacles`, the scenario's
 `command_profile_at`): there is no second copy of an equation to drift apart.
 
 Like the headless closed loop, the batch exchanges every command (lockstep, no lost or stale message) and
@@ -60,6 +60,7 @@ from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner import plan_step
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
+from twbr_sim.agents import N_AGENT_STATE, agent_arrays, agents_advance, agents_at, agents_begin, stepped
 from twbr_sim.dynamics import (
     LANES,
     N_STATE,
@@ -106,7 +107,6 @@ from twbr_sim.world import (
     advance_segments,
     assess_obstacles,
     draws_needed,
-    obstacle_positions_at,
     target_at,
     yaw_rate_draws,
 )
@@ -122,7 +122,7 @@ PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 RUN_LAYOUT = Layout((
     "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
     "target_speed", "turn_interval", "capture_radius", "ring_rows", "sensors", "estimate", "friction",
-    "monitor", "footprint", "stop_margin", "deceleration", "reaction_time",
+    "monitor", "footprint", "stop_margin", "deceleration", "reaction_time", "agents_stepped",
 ))
 U_H = RUN_LAYOUT["h"]
 U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
@@ -143,6 +143,7 @@ U_FOOTPRINT = RUN_LAYOUT["footprint"]
 U_STOP_MARGIN = RUN_LAYOUT["stop_margin"]
 U_DECELERATION = RUN_LAYOUT["deceleration"]
 U_REACTION_TIME = RUN_LAYOUT["reaction_time"]
+U_AGENTS_STEPPED = RUN_LAYOUT["agents_stepped"]  # an obstacle moves other than on a fixed line (twbr_sim.agents)
 # Per-robot result columns.
 # The first collision's obstacle (-1: none) and where the robot was when that obstacle last came into the
 # detection range (t [s], x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), for the avoidability check;
@@ -206,6 +207,7 @@ N_TRACE = len(TRACE_LAYOUT)
 LOOP_LAYOUT = Layout((
     "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
     "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded", "derived", "world_t",
+    "agent_steps",
 ))
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
@@ -224,6 +226,7 @@ L_NEW_PLAN = LOOP_LAYOUT["new_plan"]
 L_COMMANDED = LOOP_LAYOUT["commanded"]
 L_DERIVED = LOOP_LAYOUT["derived"]
 L_WORLD_T = LOOP_LAYOUT["world_t"]  # the last world instant: positions[j] are the obstacles then [s]
+L_AGENT_STEPS = LOOP_LAYOUT["agent_steps"]  # the agents' steps done (agents.agents_advance)
 N_LOOP = len(LOOP_LAYOUT)
 
 
@@ -231,8 +234,8 @@ N_LOOP = len(LOOP_LAYOUT)
 def new_memories(n, run, n_obstacles):
     """Per-robot memories for n robots of a run: loop (LOOP_LAYOUT), controller state and outputs, planner
     memory, progress ring and outputs, world tally, obstacle positions and distances, detection flags and
-    where each obstacle came into range, the state's derivative, the IMU reading, odometry, wheel loads and
-    the estimator's memory."""
+    where each obstacle came into range, the state's derivative, the IMU reading, odometry, wheel loads, the
+    estimator's memory, the agents' states (agents.AGENT_STATE_LAYOUT) and the obstacles' velocities."""
     return (
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
@@ -240,14 +243,16 @@ def new_memories(n, run, n_obstacles):
         np.zeros((n, n_obstacles)), np.zeros((n, n_obstacles), dtype=np.bool_), np.zeros((n, n_obstacles, 6)),
         np.zeros((n, N_STATE)), np.zeros((n, N_READING)), np.zeros((n, N_ENCODER_OUTPUTS)),
         np.zeros((n, N_TRACTION_OUTPUTS)), np.zeros((n, N_ESTIMATOR_MEMORY)),
+        np.zeros((n, n_obstacles, N_AGENT_STATE)), np.zeros((n, n_obstacles, 2)),
     )
 
 
 @kernel
-def robot_begin(j, run, result, memories, imu_c, imu_m, generator):
+def robot_begin(j, run, result, memories, imu_c, imu_m, generator, agents):
     """Set robot j of `memories` to the start of a run (its result row holds the running tallies)."""
     loop, control, _out, memory, ring, _plan, tally, _pos, _dist, detected, detected_at, _d, _r, _o, _l, \
-        estimator_m = memories
+        estimator_m, agent_state, _v = memories
+    agents_begin(agents, agent_state[j])
     loop[j, :] = 0.0
     loop[j, L_WORLD_NEXT] = -math.inf
     loop[j, L_PLAN_NEXT] = -math.inf
@@ -329,7 +334,7 @@ SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread,
 
 
 @kernel
-def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstacle_start, obstacle_velocity, radii,
+def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents, waypoints, radii,
              profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
              memories):
     """The samples of robots running[lo:hi], each as run_closed_loop's: sense the state, assess the world,
@@ -342,13 +347,14 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
     for the calls that want one (the planner and the world at their rates, the sensors' models, the
     controller); the controller's settings are this call's copy."""
     loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
-        derivative, reading, odometry, loads, estimator_m = memories
+        derivative, reading, odometry, loads, estimator_m, agent_state, velocities = memories
     h = run[U_H]
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
     estimate = run[U_ESTIMATE] != 0.0
     friction = run[U_FRICTION]
     monitor = run[U_MONITOR] != 0.0 and radii.shape[0] > 0 and has_target  # as planner_reference
+    agents_stepped = run[U_AGENTS_STEPPED] != 0.0
     derive = reads_derivative(run)
     c = c.copy()
     for q in range(lo, hi):
@@ -396,11 +402,14 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
             loop[j, L_LIFTED] = 1.0 if now_lifted else 0.0
             loop[j, L_SLIPPING] = 1.0 if now_slipping else 0.0
         results[j, Z_PITCH_ERROR_SQUARES] += (pitch - states[j, S_TH]) ** 2
+        if agents_stepped:  # as World.advance_to in Simulator.advance: the agents see the robot now
+            loop[j, L_AGENT_STEPS] = agents_advance(agents[j], waypoints[j], agent_state[j], loop[j, L_AGENT_STEPS], t,
+                                                    x, y, params[j, P_ROBOT_RADIUS])
         # the velocity loop's speed: odom's, or the estimator's fused one
         velocity = estimator_m[j, E_VELOCITY_ESTIMATE] if estimate else odom_velocity
         if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
             loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
-            obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
+            agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
             loop[j, L_WORLD_T] = t
             collisions_before = tally[j, W_COLLISIONS]
             clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
@@ -420,9 +429,9 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
             if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
                 loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
                 tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
-                obstacle_positions_at(obstacle_start[j], obstacle_velocity[j], t, positions[j])
+                agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
                 plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
-                          tvy, positions[j], obstacle_velocity[j], radii, distances[j])
+                          tvy, positions[j], velocities[j], radii, distances[j])
                 loop[j, L_NEXT_V] = plan_out[j, Q_V]
                 loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
                 loop[j, L_NEW_PLAN] = 1.0
@@ -449,7 +458,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
         hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
         v_ref = loop[j, L_V_REF]
         if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor, on the world's list
-            v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], obstacle_velocity[j], radii,
+            v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], velocities[j], radii,
                                   t - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION],
                                   run[U_REACTION_TIME])
             if v_ref != loop[j, L_V_REF]:
@@ -494,7 +503,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, obstac
 
 
 @parallel_kernel
-def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obstacle_velocity, radii, profile,
+def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes, threads):
     """All robots' runs, sample by sample: every running robot's sample (_samples, a share of the robots per
     thread), then their physics until the next sample in groups of `lanes` robots
@@ -505,7 +514,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
 
     params: robot parameters (robot_params.ROBOT_LAYOUT), states (dynamics.STATE_LAYOUT), c: controller
     settings (cascade.SETTINGS_LAYOUT), a: planner settings (apf.SETTINGS_LAYOUT), run: RUN_LAYOUT; each
-    robot's target segment and yaw-rate draws, obstacles' start [m] and velocity [m/s]; the radii [m]; the
+    robot's target segment and yaw-rate draws, obstacles' motions (agents.AGENT_LAYOUT) and waypoints [m]; the radii [m]; the
     command profile (three rows: t [s], v [m/s], omega [rad/s]); results: RESULT_LAYOUT rows; traces: rows of
     TRACE_LAYOUT per robot; the sensors' settings, each robot's sensor memories and generator, and the
     estimator's settings, used when run[U_SENSORS] is set (ideal sensors read the state directly)."""
@@ -521,7 +530,7 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
     for i in range(n):
-        robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i])
+        robot_begin(i, run, results[i], memories, imu_c, imu_m[i], generators[i], agents[i])
         torque_limits[i] = wheel_torque_limit(params[i])
     n_subs = robot_substeps(params, h)
     serial_work = np.empty((WORK_ROWS, N_STATE))  # the last few robots' physics, one by one
@@ -531,14 +540,14 @@ def _run_robots(params, states, c, a, run, segments, draws, obstacle_start, obst
     n_running = n
     while n_running > 0:
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
-            _samples(running, 0, n_running, ended, params, states, c, a, run, segments, obstacle_start,
-                     obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
+            _samples(running, 0, n_running, ended, params, states, c, a, run, segments, agents,
+                     waypoints, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
                      encoder_m, estimator_q, torque_limits, memories)
         else:
             share = (n_running + threads - 1) // threads
             for g in prange(threads):
                 _samples(running, min(g * share, n_running), min((g + 1) * share, n_running), ended, params,
-                         states, c, a, run, segments, obstacle_start, obstacle_velocity, radii, profile, results,
+                         states, c, a, run, segments, agents, waypoints, radii, profile, results,
                          traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
                          memories)
         m = 0
@@ -666,10 +675,9 @@ def run_batch(
         segments[:, SEG_NEXT_DRAW] = 1
     else:
         draws = np.zeros((n, 1))
-    m = len(sc.obstacles)
-    obstacle_start = np.array([[[o.x, o.y] for o in s.obstacles] for s in layouts], dtype=float).reshape(n, m, 2)
-    obstacle_velocity = np.array([[[o.vx, o.vy] for o in s.obstacles] for s in layouts],
-                                 dtype=float).reshape(n, m, 2)
+    motions = [agent_arrays(s.obstacles, seed) for s, seed in zip(layouts, seeds, strict=True)]
+    agents = np.stack([spec for spec, _ in motions])
+    waypoints = np.stack([route for _, route in motions])
     radii = np.array([o.radius for o in sc.obstacles], dtype=float)
     profile = np.ascontiguousarray(np.stack(command_profile(sc)))
     run = RUN_LAYOUT.pack({
@@ -683,6 +691,7 @@ def run_batch(
         "stop_margin": control_cfg["collision_monitor.stop_margin"],
         "deceleration": control_cfg["collision_monitor.deceleration"],
         "reaction_time": control_cfg["collision_monitor.reaction_time"],
+        "agents_stepped": bool(stepped(agents[0])),
     })
     sim_cfg = validate_all(SENSOR_SPECS, {**defaults(SENSOR_SPECS), **(sim or {})})
     imu_c = imu_vector(sim_cfg, rate)
@@ -700,6 +709,6 @@ def run_batch(
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
     with parallel_chunksize(0):  # equal shares: the running robots are kept together
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
-                    obstacle_start, obstacle_velocity, radii, profile, results, traces, imu_c, imu_m, generators,
+                    agents, waypoints, radii, profile, results, traces, imu_c, imu_m, generators,
                     encoder_c, encoder_m, estimator_vector(control_cfg), lanes, get_num_threads())
     return BatchResult(results, traces if record else None, physics_rate)

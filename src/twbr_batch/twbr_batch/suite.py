@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from twbr_batch.avoidability import OUTCOMES, Limits, classify, collision_avoidable
+from twbr_batch.avoidability import DT, HORIZON, OUTCOMES, Limits, classify, collision_avoidable, straight_path
 from twbr_batch.batch import (
     PLANNER_RATE,
     Z_COLLISIONS,
@@ -47,8 +47,9 @@ from twbr_common.params import ConfigError
 from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.robot_params import robot_params
-from twbr_sim.scenario import load_scenario, vary
+from twbr_sim.scenario import Scenario, load_scenario, vary
 from twbr_sim.scenario_files import find_scenario, suite_names
+from twbr_sim.world import World
 
 PAPER_SCENARIOS = ("static", "dynamic_target", "dynamic_obstacles")
 TIME_LIMIT = 120.0  # [s]
@@ -97,6 +98,21 @@ def suite_scenarios() -> list[Path]:
     return [find_scenario(name) for name in names]
 
 
+def obstacle_path(scenario: Scenario, seed: int, index: int, t0: float, horizon: float = HORIZON) -> np.ndarray:
+    """Obstacle `index`'s positions every avoidability.DT from t0 [s] over `horizon` in the world of `seed`:
+    its straight line, or its motion kind's path replayed in a World with no robot in it."""
+    obstacle = vary(scenario, seed).obstacles[index]
+    if obstacle.motion is None and obstacle.reaction is None:
+        return straight_path((obstacle.x + obstacle.vx * t0, obstacle.y + obstacle.vy * t0, obstacle.vx, obstacle.vy),
+                             horizon)
+    world = World(scenario, 0.0, seed)
+    path = np.empty((int(horizon / DT) + 1, 2))
+    for k in range(len(path)):
+        world.advance_to(t0 + k * DT)
+        path[k] = world.obstacle_positions()[index]
+    return path
+
+
 def robot_limits(planner: Mapping[str, Any]) -> Limits:
     """What the robot is allowed to do, as the run's planner was: the bounds of the avoidability check."""
     braking = planner["brake_deceleration"] if planner["method"] == "robust" else planner["max_acceleration"]
@@ -123,9 +139,8 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
             obstacle = vary(scenario, seed).obstacles[hit]
             hit_id = obstacle.id
             t, x, y, yaw, speed, yaw_rate = z[Z_DETECTED:Z_DETECTED + 6]
-            avoidable = collision_avoidable((x, y, yaw, speed, yaw_rate),
-                                            (obstacle.x + obstacle.vx * t, obstacle.y + obstacle.vy * t,
-                                             obstacle.vx, obstacle.vy), obstacle.radius, robot_radius, limits)
+            avoidable = collision_avoidable((x, y, yaw, speed, yaw_rate), obstacle_path(scenario, seed, hit, t),
+                                            obstacle.radius, robot_radius, limits)
         reached = not math.isnan(z[Z_REACHED_AT])
         rows.append(SuiteRow(
             scenario=scenario.name, variant=variant, seed=seed,

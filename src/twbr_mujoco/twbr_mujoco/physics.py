@@ -123,7 +123,7 @@ class MujocoSimulator(Simulator):
         mujoco.mj_forward(m, d)  # sensors and contact forces of the state reached
         self._read_state()
         if self.world is not None:
-            self.world.advance_to(self.time)
+            self.world.advance_to(self.time, (s[dyn.S_XC], s[dyn.S_YC]))
 
     def _read_pose(self) -> None:
         s, d = self.state, self.data

@@ -28,6 +28,7 @@ import yaml
 
 from twbr_common.jit import kernel
 from twbr_common.params import ConfigError, ParamSpec
+from twbr_sim.agents import MOTIONS, REACTIONS
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,99}$")
 _PI_RE = re.compile(r"^\s*(-?\d*\.?\d*)\s*\*?\s*pi\s*(?:/\s*(\d+\.?\d*))?\s*$")
@@ -65,8 +66,38 @@ class TargetSpec:
 
 
 @dataclass(frozen=True)
+class MotionSpec:
+    """How an obstacle moves other than on a straight line (twbr_sim.agents): its kind and its settings."""
+
+    kind: str  # agents.MOTIONS
+    speed: float  # [m/s] the speed it wants (wander: the middle of its draws)
+    heading: float = 0.0  # [rad] wander: the start heading
+    waypoints: tuple[tuple[float, float], ...] = ()  # [m]
+    loop: bool = True
+    pause: float = 0.0  # [s] at each waypoint
+    max_yaw_rate: float = 0.0  # [rad/s]
+    turn_interval: float = 1.0  # [s]
+    speed_change: float = 0.0  # fraction of speed
+    stop_probability: float = 0.0
+    stop_time: float = 0.0  # [s]
+    roam_radius: float = 0.0  # [m] 0: unbounded
+
+
+@dataclass(frozen=True)
+class ReactionSpec:
+    """An obstacle that reacts to the robot and the others with a social force (twbr_sim.agents)."""
+
+    attention: float = 1.0  # weight of the robot in its social force, 0-1
+    strength: float = 2.1  # [m/s²] Helbing's A
+    range: float = 0.3  # [m] Helbing's B
+    relaxation_time: float = 0.5  # [s]
+    anisotropy: float = 0.5  # lambda: weight of what is behind it
+
+
+@dataclass(frozen=True)
 class ObstacleSpec:
-    """A circular obstacle: position [m] (at t = 0 in a scenario, now in World.obstacles()), velocity [m/s]."""
+    """A circular obstacle: position [m] (at t = 0 in a scenario, now in World.obstacles()), velocity [m/s]
+    (a scenario's: the straight kind's), and how it moves otherwise (None: straight, not reacting)."""
 
     id: int
     x: float
@@ -74,6 +105,8 @@ class ObstacleSpec:
     vx: float
     vy: float
     radius: float
+    motion: MotionSpec | None = None
+    reaction: ReactionSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -90,8 +123,8 @@ class Variation:
     """Per-seed changes of the layout, each drawn uniformly in +-its value (0: none)."""
 
     obstacle_position: float = 0.0  # [m] on each of x and y of each obstacle's start
-    obstacle_timing: float = 0.0  # [s] a moving obstacle starts this much earlier or later along its path
-    obstacle_speed: float = 0.0  # fraction of a moving obstacle's speed
+    obstacle_timing: float = 0.0  # [s] an obstacle moving straight starts this much earlier or later on its path
+    obstacle_speed: float = 0.0  # fraction of a moving obstacle's speed (every motion kind's)
     target_position: float = 0.0  # [m] on each of x and y of the target's start
 
     @property
@@ -142,14 +175,40 @@ _OBSTACLE = (
     ParamSpec("id", 0, "obstacle id (unique)", "", 0, 2**31 - 1),
     ParamSpec("position", [0.0, 0.0], "start position [x, y] in odom", "m"),
     ParamSpec("radius", 1.0, "radius", "m", 0.0, 1000.0, low_open=True),
-    ParamSpec("speed", 0.0, "constant speed", "m/s", 0.0, 100.0),
-    ParamSpec("heading", 0.0, "direction of motion", "rad", -2 * math.pi, 2 * math.pi),
+    ParamSpec("speed", 0.0, "speed (straight: constant; waypoints: along the route; wander: the middle of its"
+              " draws)", "m/s", 0.0, 100.0),
+    ParamSpec("heading", 0.0, "direction of motion (wander: at the start)", "rad", -2 * math.pi, 2 * math.pi),
+    ParamSpec("motion", "straight", "straight (constant velocity), waypoints or wander (twbr_sim.agents)",
+              choices=MOTIONS),
+    ParamSpec("loop", True, "waypoints: start again at the first after the last (false: stop there)"),
+    ParamSpec("pause", 0.0, "waypoints: time standing at each waypoint", "s", 0.0, 1e4),
+    ParamSpec("max_yaw_rate", 0.0, "wander: yaw rate drawn uniformly in +-max_yaw_rate", "rad/s", 0.0, 20.0),
+    ParamSpec("turn_interval", 1.0, "wander: time between draws", "s", 0.0, 1e4, low_open=True),
+    ParamSpec("speed_change", 0.0, "wander: the speed drawn within +-this fraction of speed", "", 0.0, 1.0),
+    ParamSpec("stop_probability", 0.0, "wander: chance of a stop at each draw (stop and go)", "", 0.0, 1.0),
+    ParamSpec("stop_time", 0.0, "wander: how long a stop lasts", "s", 0.0, 1e4),
+    ParamSpec("roam_radius", 0.0, "wander: beyond this from its start it turns back (0: unbounded)", "m", 0.0, 1e6),
+    ParamSpec("react", "none", "social: it avoids the robot and the other obstacles by a social force (Helbing"
+              " & Molnar 1995)", choices=REACTIONS),
+    ParamSpec("attention", 1.0, "social: weight of the robot in its social force (0: it does not see it)", "",
+              0.0, 1.0),
+    ParamSpec("social_strength", 2.1, "social: Helbing's A, the push at contact", "m/s²", 0.0, 1000.0),
+    ParamSpec("social_range", 0.3, "social: Helbing's B, the push's decay length", "m", 0.0, 100.0, low_open=True),
+    ParamSpec("relaxation_time", 0.5, "social: time to regain its desired velocity", "s", 0.0, 100.0,
+              low_open=True),
+    ParamSpec("anisotropy", 0.5, "social: weight of what is behind it against what is ahead (1: all alike)", "",
+              0.0, 1.0),
 )
+_MOTION_FIELDS = {  # the fields that belong to one motion kind or to the reaction
+    "waypoints": ("loop", "pause"),
+    "wander": ("max_yaw_rate", "turn_interval", "speed_change", "stop_probability", "stop_time", "roam_radius"),
+    "social": ("attention", "social_strength", "social_range", "relaxation_time", "anisotropy"),
+}
 _VARIATION = (
     ParamSpec("obstacle_position", 0.0, "each obstacle's start moves by up to this in x and in y, per seed", "m",
               0.0, 100.0),
-    ParamSpec("obstacle_timing", 0.0, "each moving obstacle starts up to this much earlier or later along its"
-              " path, per seed", "s", 0.0, 1000.0),
+    ParamSpec("obstacle_timing", 0.0, "each obstacle moving straight starts up to this much earlier or later"
+              " along its path, per seed", "s", 0.0, 1000.0),
     ParamSpec("obstacle_speed", 0.0, "each moving obstacle's speed changes by up to this fraction, per seed", "",
               0.0, 0.9),
     ParamSpec("target_position", 0.0, "the target's start moves by up to this in x and in y, per seed", "m",
@@ -205,6 +264,58 @@ def _planner_section(raw: Any) -> tuple[tuple[str, Any], ...]:
     return tuple(raw.items())
 
 
+def _waypoints(raw: Any, where: str) -> tuple[tuple[float, float], ...]:
+    if not isinstance(raw, (list, tuple)) or not raw:
+        raise ConfigError(f"invalid field '{where}' = {raw!r}: must be a non-empty list of [x, y] in m")
+    spec = ParamSpec("position", [0.0, 0.0], "", "m")
+    out = []
+    for k, point in enumerate(raw):
+        path = f"{where}[{k}]"
+        checked = ParamSpec(**{**spec.__dict__, "name": path}).validate(point)
+        if len(checked) != 2 or any(abs(c) > _BIG for c in checked):
+            raise ConfigError(f"invalid field '{path}' = {point!r}: must be [x, y] in m, within +-{_BIG:g} m")
+        out.append((checked[0], checked[1]))
+    return tuple(out)
+
+
+def _obstacle(raw: Any, k: int) -> ObstacleSpec:
+    """One entry of `obstacles`: a field of another motion kind than the entry's is refused by name."""
+    where = f"obstacles[{k}]"
+    entry = dict(raw) if isinstance(raw, dict) else raw
+    waypoints_raw = entry.pop("waypoints", None) if isinstance(entry, dict) else None
+    ob = _section(_OBSTACLE, entry, where, required=("position", "radius"))
+    given = set(entry) if isinstance(entry, dict) else set()
+    kind = ob["motion"]
+    own = _MOTION_FIELDS.get(kind, ()) + (_MOTION_FIELDS["social"] if ob["react"] == "social" else ())
+    for field_name in sorted(given):
+        if any(field_name in names for names in _MOTION_FIELDS.values()) and field_name not in own:
+            owner = next(key for key, names in _MOTION_FIELDS.items() if field_name in names)
+            needs = "react: social" if owner == "social" else f"motion: {owner}"
+            raise ConfigError(f"invalid field '{where}.{field_name}': only for {needs} (this obstacle has motion:"
+                              f" {kind}, react: {ob['react']})")
+    if (waypoints_raw is not None) != (kind == "waypoints"):
+        raise ConfigError(f"invalid field '{where}.waypoints': motion: waypoints needs a list of waypoints, and"
+                          f" only it takes one (this obstacle has motion: {kind})")
+    if kind != "straight" and ob["speed"] <= 0.0:
+        raise ConfigError(f"invalid field '{where}.speed' = {ob['speed']:g}: motion: {kind} needs a speed above 0")
+    motion = None
+    if kind != "straight":
+        motion = MotionSpec(
+            kind, ob["speed"], ob["heading"], _waypoints(waypoints_raw, f"{where}.waypoints") if waypoints_raw
+            is not None else (), ob["loop"], ob["pause"], ob["max_yaw_rate"], ob["turn_interval"],
+            ob["speed_change"], ob["stop_probability"], ob["stop_time"], ob["roam_radius"])
+    reaction = None
+    if ob["react"] == "social":
+        reaction = ReactionSpec(ob["attention"], ob["social_strength"], ob["social_range"], ob["relaxation_time"],
+                                ob["anisotropy"])
+    straight = kind == "straight"
+    return ObstacleSpec(
+        ob["id"] if "id" in given else k + 1, ob["position"][0], ob["position"][1],
+        ob["speed"] * math.cos(ob["heading"]) if straight else 0.0,
+        ob["speed"] * math.sin(ob["heading"]) if straight else 0.0, ob["radius"], motion, reaction,
+    )
+
+
 def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenario:
     if not isinstance(raw, dict):
         raise ConfigError(f"scenario {source or name}: must be a mapping of fields")
@@ -232,17 +343,7 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         )
     if not isinstance(obstacles_raw, list):
         raise ConfigError("invalid field 'obstacles': must be a list of obstacles")
-    obstacles = []
-    for k, o in enumerate(obstacles_raw):
-        ob = _section(_OBSTACLE, o, f"obstacles[{k}]", required=("position", "radius"))
-        if "id" not in (o or {}):
-            ob["id"] = k + 1
-        obstacles.append(
-            ObstacleSpec(
-                ob["id"], ob["position"][0], ob["position"][1],
-                ob["speed"] * math.cos(ob["heading"]), ob["speed"] * math.sin(ob["heading"]), ob["radius"],
-            )
-        )
+    obstacles = [_obstacle(o, k) for k, o in enumerate(obstacles_raw)]
     ids = [o.id for o in obstacles]
     if len(set(ids)) != len(ids):
         raise ConfigError(f"invalid field 'obstacles': ids must be unique, got {ids}")
@@ -286,6 +387,16 @@ def layout_problem(scenario: Scenario) -> str | None:
 VARIATION_ATTEMPTS = 100  # draws tried for a seed before its layout is refused
 
 
+def _varied(o: ObstacleSpec, dx: float, dy: float, shift: float, scale: float) -> ObstacleSpec:
+    """An obstacle moved by (dx, dy) [m] with its route, `shift` [s] along a straight path, its speed scaled."""
+    motion = o.motion
+    if motion is not None:
+        motion = replace(motion, speed=motion.speed * scale,
+                         waypoints=tuple((wx + dx, wy + dy) for wx, wy in motion.waypoints))
+    return replace(o, x=o.x + dx + o.vx * shift, y=o.y + dy + o.vy * shift, vx=o.vx * scale, vy=o.vy * scale,
+                   motion=motion)
+
+
 def vary(scenario: Scenario, seed: int) -> Scenario:
     """The layout of `seed`: the scenario with its variation drawn (itself when it has none).
 
@@ -301,8 +412,7 @@ def vary(scenario: Scenario, seed: int) -> Scenario:
             dx, dy = rng.uniform(-v.obstacle_position, v.obstacle_position, 2)
             shift = rng.uniform(-v.obstacle_timing, v.obstacle_timing)
             scale = 1.0 + rng.uniform(-v.obstacle_speed, v.obstacle_speed)
-            obstacles.append(ObstacleSpec(o.id, o.x + dx + o.vx * shift, o.y + dy + o.vy * shift, o.vx * scale,
-                                          o.vy * scale, o.radius))
+            obstacles.append(_varied(o, dx, dy, shift, scale))
         target = scenario.target
         if target is not None:
             dx, dy = rng.uniform(-v.target_position, v.target_position, 2)

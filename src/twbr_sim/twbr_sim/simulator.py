@@ -194,7 +194,7 @@ class Simulator:
                 self.fallen = dyn.advance_upright(self.p, self.state, left, right, self.h, block, self._work)
             self.step_count += block
         if self.world is not None:
-            self.world.advance_to(self.time)
+            self.world.advance_to(self.time, (self.state[dyn.S_XC], self.state[dyn.S_YC]))
 
     def derivative(self) -> np.ndarray:
         if self.fallen:

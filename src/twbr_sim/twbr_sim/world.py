@@ -1,10 +1,12 @@
-"""The world the robot navigates: a randomly turning target and circular obstacles at constant velocity.
+"""The world the robot navigates: a randomly turning target and circular obstacles that move.
 
 The target moves at constant speed; its yaw rate is redrawn uniformly in +-max_yaw_rate every
 turn_interval seconds from a seeded generator, and each segment is integrated exactly as an arc, so
-the world at time t is the same whichever times it was sampled at. Obstacles move in straight lines.
+the target at time t is the same whichever times it was sampled at. Obstacles move by their kind
+(twbr_sim.agents: straight lines, waypoint routes, wandering, with or without reacting to the robot and
+each other); those that react take the robot's pose the world was last given.
 No rclpy: the simulator node, world_node and the headless runs use `World`; it and the batch engine
-call the same compiled kernels (the target's segments, the obstacles' positions, the assessment).
+call the same compiled kernels (the target's segments, the agents' steps, the assessment).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
+from twbr_sim.agents import N_AGENT_STATE, agent_arrays, agents_advance, agents_at, agents_begin, stepped
 from twbr_sim.scenario import ObstacleSpec, Scenario, vary
 
 # The target's current segment: where and when it started, its heading then, its yaw rate, and the index
@@ -100,13 +103,6 @@ def target_at(seg, speed, t):
 
 
 @kernel
-def obstacle_positions_at(start, velocity, t, out):
-    for j in range(start.shape[0]):
-        out[j, 0] = start[j, 0] + velocity[j, 0] * t
-        out[j, 1] = start[j, 1] + velocity[j, 1] * t
-
-
-@kernel
 def assess_obstacles(positions, radii, robot_radius, robot_x, robot_y, tally):
     """(clearance, index of the obstacle hit or -1): footprint to the nearest surface [m], inf without
     obstacles; a collision that begins now is counted in `tally`."""
@@ -155,10 +151,15 @@ class World:
         self.tally = np.zeros(N_TALLY)
         obs = scenario.obstacles
         self._ids = np.array([o.id for o in obs], dtype=int)
-        self._p0 = np.array([[o.x, o.y] for o in obs], dtype=float).reshape(-1, 2)
-        self._v = np.array([[o.vx, o.vy] for o in obs], dtype=float).reshape(-1, 2)
+        self._agents, self._waypoints = agent_arrays(obs, seed)
+        self._agent_state = np.zeros((len(obs), N_AGENT_STATE))
+        agents_begin(self._agents, self._agent_state)
+        self._agent_steps = 0.0
+        self._stepped = bool(stepped(self._agents))
         self._radius = np.array([o.radius for o in obs], dtype=float)
-        self._positions = np.empty_like(self._p0)
+        self._positions = np.zeros((len(obs), 2))
+        self._velocities = np.zeros((len(obs), 2))
+        self._robot = (math.nan, math.nan)
 
     def warm_up(self) -> None:
         """Load the compiled kernels now, on a copy (its own generator too), so the first tick is on time."""
@@ -178,11 +179,17 @@ class World:
         tgt = self.scenario.target
         return tgt.capture_radius if tgt is not None else 0.0
 
-    def advance_to(self, t: float) -> None:
-        """Move the world forward to time t [s] (never backwards)."""
+    def advance_to(self, t: float, robot_xy: tuple[float, float] | None = None) -> None:
+        """Move the world forward to time t [s] (never backwards); the obstacles that react see the robot at
+        `robot_xy` [m] (None: where it was last given; never given: they do not see it)."""
         if t < self.time:
             raise ValueError(f"world time cannot go back: {t} < {self.time}")
         self.time = t
+        if robot_xy is not None:
+            self._robot = (float(robot_xy[0]), float(robot_xy[1]))
+        if self._stepped:
+            self._agent_steps = agents_advance(self._agents, self._waypoints, self._agent_state, self._agent_steps,
+                                               float(t), self._robot[0], self._robot[1], float(self.robot_radius))
         tgt = self.scenario.target
         if tgt is None:
             return
@@ -196,23 +203,27 @@ class World:
         x, y, heading, _vx, _vy = target_at(self.segment, tgt.speed, self.time)
         return TargetState(x, y, heading, tgt.speed, float(self.segment[SEG_YAW_RATE]))
 
+    def _locate(self) -> None:
+        agents_at(self._agents, self._agent_state, self._agent_steps, float(self.time), self._positions,
+                  self._velocities)
+
     def obstacle_positions(self) -> np.ndarray:
-        obstacle_positions_at(self._p0, self._v, self.time, self._positions)
+        self._locate()
         return self._positions.copy()
 
     def obstacles(self) -> list[ObstacleSpec]:
-        """The obstacles now: positions at the world's time, velocities and radii as specified."""
-        pos = self.obstacle_positions()
+        """The obstacles now: positions and velocities at the world's time, and radii."""
+        self._locate()
         return [
             ObstacleSpec(int(i), float(p[0]), float(p[1]), float(v[0]), float(v[1]), float(r))
-            for i, p, v, r in zip(self._ids, pos, self._v, self._radius, strict=True)
+            for i, p, v, r in zip(self._ids, self._positions, self._velocities, self._radius, strict=True)
         ]
 
     def assess(self, robot_x: float, robot_y: float) -> Assessment:
         """Collision, clearance and target distance for the robot at (robot_x, robot_y); counts collisions."""
         tgt = self.target()
         target_distance = math.inf if tgt is None else math.hypot(tgt.x - robot_x, tgt.y - robot_y)
-        obstacle_positions_at(self._p0, self._v, self.time, self._positions)
+        self._locate()
         clearance, hit = assess_obstacles(self._positions, self._radius, self.robot_radius, float(robot_x),
                                           float(robot_y), self.tally)
         return Assessment(

@@ -92,7 +92,7 @@ class WorldNode(Node):
             return
         if t < self.world.time:
             self.inputs.restart()
-        self.world.advance_to(t)
+        self.world.advance_to(t, self._robot_xy)
         stamp = clock_now.to_msg()  # the instant the world was sampled at, however long the step took
         target = self.world.target()
         if target is not None:
