@@ -67,6 +67,21 @@ def test_the_robust_planner_runs_the_same_in_the_batch_and_on_the_scalar_cores(n
         assert row.reached  # the robust method reaches these targets
 
 
+@pytest.mark.parametrize(("method", "name"), [("dwa", "suite/crowd_crossing"), ("vo", "suite/people_flow")])
+def test_the_peer_methods_run_the_same_in_the_batch_and_on_the_scalar_cores(method, name):
+    path = find_scenario(name)
+    planner = {"method": method}
+    result = batch.run_batch(load_scenario(path), [1], robot_params()[None, :], planner=planner, record=True)
+    row, trace = mc.run_one_traced(str(path), 1, 0.0, planner=planner)
+    got = result.trace(0)
+    assert len(got["t"]) == len(trace.t) > 100
+    for column, field in COMPARED:
+        np.testing.assert_allclose(got[column], trace[field], **TOL, err_msg=f"{name} {method} {column}")
+    np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
+    assert result.table[0, batch.Z_COLLISIONS] == row.collisions
+    assert np.abs(trace["velocity_ref"]).max() > 0.3  # it drove
+
+
 def test_the_runs_are_not_all_alike():
     # Guards the comparison above against a world that ignores the seed or a robot that ignores its
     # parameters: seeds move the target differently and a perturbed robot leans differently.

@@ -115,7 +115,7 @@ def obstacle_path(scenario: Scenario, seed: int, index: int, t0: float, horizon:
 
 def robot_limits(planner: Mapping[str, Any]) -> Limits:
     """What the robot is allowed to do, as the run's planner was: the bounds of the avoidability check."""
-    braking = planner["brake_deceleration"] if planner["method"] == "robust" else planner["max_acceleration"]
+    braking = planner["max_acceleration"] if planner["method"] == "paper" else planner["brake_deceleration"]
     return Limits(planner["v_max"], planner["max_acceleration"], braking, planner["max_yaw_rate"],
                   planner["max_yaw_acceleration"])
 
@@ -283,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("-n", "--runs", type=int, default=1000, help="seeds per scenario and method (default 1000)")
     ap.add_argument("--first-seed", type=int, default=1,
                     help="the first seed (default 1); another range checks results on seeds nothing was tuned on")
-    ap.add_argument("--methods", default=",".join(METHODS), help="planner methods, comma-separated (default: both)")
+    ap.add_argument("--methods", default=",".join(METHODS), help="planner methods, comma-separated (default: all)")
     ap.add_argument("--ablation", action="store_true",
                     help="the robust method with each addition switched off in turn, instead of the methods")
     ap.add_argument("--scenarios", help="only these scenarios (names, comma-separated)")

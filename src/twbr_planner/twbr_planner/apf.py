@@ -53,7 +53,7 @@ class Mode(Enum):
 
 MODES = tuple(Mode)  # a mode's code in the kernels is its index here
 TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET, ESCAPING, EVADING = range(len(MODES))
-PAPER, ROBUST = range(len(METHODS))  # a method's code in the settings vector
+PAPER, ROBUST, DWA, VO = range(len(METHODS))  # a method's code in the settings vector
 
 # Settings vector: planner_params.APF_SPECS by name (the method by its code).
 SETTINGS_LAYOUT = Layout(spec.name for spec in APF_SPECS)
@@ -87,6 +87,12 @@ A_SAFETY_GAMMA = SETTINGS_LAYOUT["safety_gamma"]
 A_SAFETY_MARGIN = SETTINGS_LAYOUT["safety_margin"]
 A_SAFETY_LOOKAHEAD = SETTINGS_LAYOUT["safety_lookahead"]
 A_BRAKE_DECELERATION = SETTINGS_LAYOUT["brake_deceleration"]
+A_DWA_HORIZON = SETTINGS_LAYOUT["dwa_horizon"]
+A_DWA_HEADING_WEIGHT = SETTINGS_LAYOUT["dwa_heading_weight"]
+A_DWA_CLEARANCE_WEIGHT = SETTINGS_LAYOUT["dwa_clearance_weight"]
+A_DWA_SPEED_WEIGHT = SETTINGS_LAYOUT["dwa_speed_weight"]
+A_DWA_CLEARANCE_CAP = SETTINGS_LAYOUT["dwa_clearance_cap"]
+A_VO_HORIZON = SETTINGS_LAYOUT["vo_horizon"]
 # Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
 # it began, whether the last step found no progress, and the side of the last way round).
@@ -169,7 +175,7 @@ class Obstacles:
 
 
 @kernel
-def _attractive(px, py, vx, vy, tx, ty, tvx, tvy, k_p, k_v):
+def attraction(px, py, vx, vy, tx, ty, tvx, tvy, k_p, k_v):
     return k_p * (tx - px) + k_v * (tvx - vx), k_p * (ty - py) + k_v * (tvy - vy)
 
 
@@ -182,7 +188,7 @@ def _repulsive_magnitude(d, k_o, rho_o, d_min):
 
 
 @kernel
-def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distances, fade=1.0):
+def repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distances, fade=1.0):
     """Eq. 23 summed over the obstacles (from each obstacle to the robot), each scaled by `fade` (the robust
     method's goal fade); clearances into `distances`."""
     fx = 0.0
@@ -198,6 +204,13 @@ def _repulsion(px, py, positions, radii, k_o, rho_o, robot_radius, d_min, distan
         fx += magnitude * (ax / scale)
         fy += magnitude * (ay / scale)
     return fx, fy
+
+
+@kernel
+def clearances(px, py, positions, radii, robot_radius, distances):
+    """Each obstacle's clearance from the footprint at (px, py) into `distances` [m]."""
+    for j in range(radii.shape[0]):
+        distances[j] = math.hypot(px - positions[j, 0], py - positions[j, 1]) - radii[j] - robot_radius
 
 
 @kernel
@@ -230,7 +243,7 @@ def yaw_rate_command(desired_heading: float, yaw: float, k_s: float, limit: floa
 def attractive_force(p_rob: np.ndarray, v_rob: np.ndarray, p_tar: np.ndarray, v_tar: np.ndarray, k_p: float,
                      k_v: float) -> np.ndarray:
     """Eq. 21."""
-    return np.array(_attractive(float(p_rob[0]), float(p_rob[1]), float(v_rob[0]), float(v_rob[1]),
+    return np.array(attraction(float(p_rob[0]), float(p_rob[1]), float(v_rob[0]), float(v_rob[1]),
                                 float(p_tar[0]), float(p_tar[1]), float(v_tar[0]), float(v_tar[1]), k_p, k_v))
 
 
@@ -246,7 +259,7 @@ def repulsive_force(p_rob: np.ndarray, obstacles: Obstacles, k_o: float, rho_o: 
                     d_min: float) -> tuple[np.ndarray, np.ndarray]:
     """Sum of eq. 23 over the obstacles, pointing from each obstacle to the robot; also the distances."""
     d = np.empty(len(obstacles.radii))
-    f = _repulsion(float(p_rob[0]), float(p_rob[1]), obstacles.positions, obstacles.radii, k_o, rho_o,
+    f = repulsion(float(p_rob[0]), float(p_rob[1]), obstacles.positions, obstacles.radii, k_o, rho_o,
                    robot_radius, d_min, d)
     return np.array(f), d
 
@@ -316,7 +329,7 @@ def _smooth(a, m, stamp, v, omega):
 
 
 @kernel
-def _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+def no_progress(a, m, ring, stamp, distance, x, y, moving_target):
     """No progress over stuck_time: the robot moved less than stuck_progress, or (static target) the
     distance to it shrank by less than that. A robot following a moving target is not stuck."""
     capacity = ring.shape[0]
@@ -386,8 +399,8 @@ def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     """One planning step towards a target into `out` (Q_*): eqs. 21-28, arrival, following, stuck, smoothing."""
     vx = speed * math.cos(yaw)
     vy = speed * math.sin(yaw)
-    f_att_x, f_att_y = _attractive(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
-    f_rep_x, f_rep_y = _repulsion(x, y, positions, radii, a[A_K_O], a[A_RHO_O], a[A_ROBOT_RADIUS],
+    f_att_x, f_att_y = attraction(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
+    f_rep_x, f_rep_y = repulsion(x, y, positions, radii, a[A_K_O], a[A_RHO_O], a[A_ROBOT_RADIUS],
                                   a[A_MIN_DISTANCE], distances)
     total_x = f_att_x + f_rep_x
     total_y = f_att_y + f_rep_y
@@ -401,7 +414,7 @@ def apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
     moving_target = math.hypot(target_vx, target_vy) > 1e-3
     mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
-    if not arrived and mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+    if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
         mode = STUCK
     v, omega = _smooth(a, m, stamp, v, omega)
     write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,

@@ -1,7 +1,8 @@
 """The planner core the node and the headless runs call: one planning step of the chosen method.
 
 `plan_step` is the compiled entry point (the batch engine calls it too): the paper's field
-(`apf.apf_step`) or the robust one (`robust.robust_step`), by the settings' method. `ApfPlanner` keeps a
+(`apf.apf_step`), the robust one (`robust.robust_step`) or a baseline peer (`dwa.dwa_step`,
+`velocity_obstacles.vo_step`), by the settings' method. `ApfPlanner` keeps a
 planner's memory between steps and turns the output vector into a `PlannerOutput`.
 """
 
@@ -19,6 +20,7 @@ from twbr_common.jit import kernel
 from twbr_common.params import default_of
 from twbr_planner.apf import (
     A_METHOD,
+    DWA,
     MODES,
     N_MEMORY,
     N_OUTPUTS,
@@ -41,14 +43,17 @@ from twbr_planner.apf import (
     Q_V,
     R_HEAD,
     R_LENGTH,
+    VO,
     Mode,
     Obstacles,
     apf_step,
     progress_capacity,
     settings_vector,
 )
+from twbr_planner.dwa import dwa_step
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.robust import robust_step
+from twbr_planner.velocity_obstacles import vo_step
 
 
 @kernel
@@ -58,6 +63,12 @@ def plan_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targ
     if a[A_METHOD] == PAPER:
         apf_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii,
                  distances)
+    elif a[A_METHOD] == DWA:
+        dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
+                 velocities, radii, distances)
+    elif a[A_METHOD] == VO:
+        vo_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
+                velocities, radii, distances)
     else:
         robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
                     velocities, radii, distances)

@@ -8,14 +8,15 @@ from typing import Any
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
 from twbr_sim.robot_limits import ROBOT_FILE_SPEC, RobotLimits, at_most, limits_from_file
 
-METHODS = ("paper", "robust")
+METHODS = ("paper", "robust", "dwa", "vo")
 
 APF_SPECS: tuple[ParamSpec, ...] = (
     *tunable(
     ParamSpec("method", "robust", "robust: the paper's field with goal-reachable repulsion, an escape from local"
               " minima down a navigation function, dynamic repulsion, a braking speed policy and a safety filter;"
               " paper: the paper's field (eqs. 19-28 with the documented fixes), which its three scenarios pin"
-              " (docs/planner.md)", choices=METHODS),
+              " (docs/planner.md); dwa, vo: the dynamic window approach (Fox et al. 1997) and velocity obstacles"
+              " (Fiorini & Shiller 1998), baseline peers under the same limits", choices=METHODS),
     ParamSpec("k_p", 1.0, "K_p: attractive gain on the target's relative position (eq. 21)", "1/s²", 0.0, 1000.0,
               low_open=True),
     ParamSpec("k_v", 0.5, "K_v: attractive gain on the target's relative velocity (eq. 21)", "1/s", 0.0, 1000.0),
@@ -73,6 +74,19 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               10.0),
     ParamSpec("safety_lookahead", 0.3, "robust: the barrier is on a point this far ahead of the axle (where the"
               " yaw rate acts too)", "m", 0.0, 10.0, low_open=True),
+    # The baseline peers (method: dwa, method: vo); they share v_max, the acceleration limits,
+    # brake_deceleration, robot_radius, safety_margin, rho_o (the mode's range), arrival and the stuck report.
+    ParamSpec("dwa_horizon", 3.0, "dwa: each (v, omega) is rolled out this long, obstacles at constant velocity",
+              "s", 0.0, 60.0, low_open=True),
+    ParamSpec("dwa_heading_weight", 1.0, "dwa: weight of the heading to the target at the rollout's end", "", 0.0,
+              100.0),
+    ParamSpec("dwa_clearance_weight", 0.3, "dwa: weight of the rollout's clearance (capped at dwa_clearance_cap)",
+              "", 0.0, 100.0),
+    ParamSpec("dwa_speed_weight", 0.6, "dwa: weight of the speed", "", 0.0, 100.0),
+    ParamSpec("dwa_clearance_cap", 1.0, "dwa: clearance beyond this scores no more", "m", 0.0, 100.0,
+              low_open=True),
+    ParamSpec("vo_horizon", 5.0, "vo: a velocity that meets an obstacle within this time is in its velocity"
+              " obstacle", "s", 0.0, 60.0, low_open=True),
     ),
 )
 

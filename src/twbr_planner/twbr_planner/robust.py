@@ -81,13 +81,13 @@ from twbr_planner.apf import (
     R_WAY_SIDE,
     STUCK,
     TRACKING,
-    _attractive,
-    _repulsion,
-    _stuck,
     arrive,
+    attraction,
     command_period,
     limit_rates,
     nearest_obstacle,
+    no_progress,
+    repulsion,
     write_output,
 )
 from twbr_planner.navigation import navigation_direction
@@ -342,14 +342,14 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
     vx = speed * math.cos(yaw)
     vy = speed * math.sin(yaw)
     robot_radius = a[A_ROBOT_RADIUS]
-    f_att_x, f_att_y = _attractive(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
+    f_att_x, f_att_y = attraction(x, y, vx, vy, target_x, target_y, target_vx, target_vy, a[A_K_P], a[A_K_V])
     distance = math.hypot(target_x - x, target_y - y)
     moving_target = math.hypot(target_vx, target_vy) > 1e-3
     fade = 1.0
     if a[A_GOAL_FADE] > 0.0:
         fade = min(1.0, (distance / a[A_GOAL_FADE]) ** 2)
     # 1. repulsion within repulsion_range, faded towards the target; moving obstacles are flagged
-    f_rep_x, f_rep_y = _repulsion(x, y, positions, radii, a[A_K_O], a[A_REPULSION_RANGE], robot_radius,
+    f_rep_x, f_rep_y = repulsion(x, y, positions, radii, a[A_K_O], a[A_REPULSION_RANGE], robot_radius,
                                   a[A_MIN_DISTANCE], distances, fade)
     moving = np.empty(radii.shape[0], dtype=np.bool_)
     nearest_static = math.inf
@@ -504,7 +504,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         m[R_FOLLOWING] = 0.0
     else:
         m[R_STALLED] = 0.0
-        if mode != FOLLOWING and _stuck(a, m, ring, stamp, distance, x, y, moving_target):
+        if mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
             mode = STUCK
             m[R_STALLED] = 1.0  # the next step follows the boundary, if there is one
     # 5. the safety filter, then the acceleration limits' memory

@@ -1,0 +1,139 @@
+"""The dynamic window approach (`method: dwa`), a baseline peer of the robust method.
+
+Fox, Burgard & Thrun (1997), "The dynamic window approach to collision avoidance", IEEE Robotics &
+Automation Magazine 4(1). Each planning step scores a grid of (v, omega) commands by rolling each out
+over `dwa_horizon` seconds and keeps the best:
+
+    G(v, omega) = dwa_heading_weight * heading + dwa_clearance_weight * clearance + dwa_speed_weight * velocity
+
+heading: 1 - |angle from the rollout's end pose to the target| / pi; clearance: the smallest footprint
+clearance along the rollout, capped at `dwa_clearance_cap`, over the cap; velocity: the rollout's speed
+over v_max (Fox's three terms, each normalised to [0, 1]). A rollout that comes within `safety_margin` of
+an obstacle is not admissible (Fox's admissible velocities: the robot could not stop before it); when
+none is, the one whose contact comes last is taken. As in ROS's trajectory rollout, each rollout reaches
+its (v, omega) at the robot's acceleration limits (max_acceleration, brake_deceleration,
+max_yaw_acceleration) from the last command, so the window is what the robot can reach over the horizon
+and the rollout is the path it would drive. Obstacles move at their constant velocity along each rollout.
+The same limits, arrival and stuck report as the other methods; compiled, shared with the batch engine.
+"""
+
+from __future__ import annotations
+
+import math
+
+from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
+from twbr_planner.apf import (
+    A_APPROACH_GAIN,
+    A_BRAKE_DECELERATION,
+    A_DWA_CLEARANCE_CAP,
+    A_DWA_CLEARANCE_WEIGHT,
+    A_DWA_HEADING_WEIGHT,
+    A_DWA_HORIZON,
+    A_DWA_SPEED_WEIGHT,
+    A_K_P,
+    A_K_V,
+    A_MAX_ACCELERATION,
+    A_MAX_YAW_ACCELERATION,
+    A_MAX_YAW_RATE,
+    A_RHO_O,
+    A_ROBOT_RADIUS,
+    A_SAFETY_MARGIN,
+    A_V_MAX,
+    AVOIDING,
+    FOLLOWING,
+    R_LAST_OMEGA,
+    R_LAST_V,
+    STUCK,
+    TRACKING,
+    arrive,
+    attraction,
+    clearances,
+    limit_rates,
+    nearest_obstacle,
+    no_progress,
+    write_output,
+)
+
+V_SAMPLES = 7  # forward speeds from 0 to v_max
+OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s apart by default: the heading
+# at a rollout's end must be able to settle on the target's)
+ROLLOUT_STEP = 0.2  # [s]
+
+
+@kernel
+def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii):
+    """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
+    acceleration limits for dwa_horizon; the smallest footprint clearance to the obstacles moving at their
+    velocity (inf without obstacles) and when it first falls below safety_margin (inf never)."""
+    steps = max(1, int(a[A_DWA_HORIZON] / ROLLOUT_STEP + 0.5))
+    v = v0
+    w = w0
+    clearance = math.inf
+    contact = math.inf
+    robot_radius = a[A_ROBOT_RADIUS]
+    for k in range(1, steps + 1):
+        if v_goal > v:
+            v = min(v_goal, v + a[A_MAX_ACCELERATION] * ROLLOUT_STEP)
+        else:
+            v = max(v_goal, v - a[A_BRAKE_DECELERATION] * ROLLOUT_STEP)
+        dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
+        w = min(max(w_goal, w - dw), w + dw)
+        yaw += w * ROLLOUT_STEP
+        x += v * math.cos(yaw) * ROLLOUT_STEP
+        y += v * math.sin(yaw) * ROLLOUT_STEP
+        t = k * ROLLOUT_STEP
+        for j in range(radii.shape[0]):
+            ox = positions[j, 0] + velocities[j, 0] * t
+            oy = positions[j, 1] + velocities[j, 1] * t
+            gap = math.hypot(x - ox, y - oy) - radii[j] - robot_radius
+            clearance = min(clearance, gap)
+            if gap < a[A_SAFETY_MARGIN] and contact == math.inf:
+                contact = t
+    return clearance, contact, x, y, yaw
+
+
+@kernel
+def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
+             velocities, radii, distances):
+    """One planning step of the dynamic window approach into `out` (Q_*)."""
+    f_att_x, f_att_y = attraction(x, y, speed * math.cos(yaw), speed * math.sin(yaw), target_x, target_y,
+                                  target_vx, target_vy, a[A_K_P], a[A_K_V])
+    clearances(x, y, positions, radii, a[A_ROBOT_RADIUS], distances)
+    nearest, nearest_d = nearest_obstacle(distances)
+    distance = math.hypot(target_x - x, target_y - y)
+    moving_target = math.hypot(target_vx, target_vy) > 1e-3
+    v0 = m[R_LAST_V]
+    w0 = m[R_LAST_OMEGA]
+    cap = a[A_DWA_CLEARANCE_CAP]
+    best_score = -math.inf
+    best_contact = -1.0
+    best_v = 0.0
+    best_w = 0.0
+    best_yaw = yaw
+    # the speeds it may drive: near a static target at most approach_gain times the distance, as arrive() caps
+    v_top = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    for i in range(V_SAMPLES):
+        v_goal = v_top * i / (V_SAMPLES - 1)
+        for k in range(OMEGA_SAMPLES):
+            w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (OMEGA_SAMPLES - 1) - 1.0)
+            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities,
+                                                       radii)
+            heading = 1.0 - abs(wrap_angle(math.atan2(target_y - ey, target_x - ex) - eyaw)) / math.pi
+            score = (a[A_DWA_HEADING_WEIGHT] * heading
+                     + a[A_DWA_CLEARANCE_WEIGHT] * min(max(clearance, 0.0), cap) / cap
+                     + a[A_DWA_SPEED_WEIGHT] * v_goal / a[A_V_MAX])
+            # admissible first (no contact within the horizon), then the latest contact, then the score
+            if contact > best_contact or (contact == best_contact and score > best_score):
+                best_contact = contact
+                best_score = score
+                best_v = v_goal
+                best_w = w_goal
+                best_yaw = eyaw
+    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
+    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, best_v, best_w)
+    if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
+        mode = STUCK
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
+    write_output(out, f_att_x, f_att_y, 0.0, 0.0, best_yaw, wrap_angle(best_yaw - yaw), v, omega, distance, nearest_d,
+                 nearest, mode, 0.0, -1.0, -1.0)
