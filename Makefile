@@ -31,7 +31,7 @@ montecarlo: setup
 
 SUITE_N ?= 1000
 suite: setup
-	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(SUITE_ARGS)
+	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(if $(SCENARIOS),--scenarios $(SCENARIOS)) $(if $(METHODS),--methods $(METHODS)) $(SUITE_ARGS)
 
 BENCH_OUT ?= benchmarks/results
 bench: setup

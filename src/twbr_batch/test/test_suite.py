@@ -9,7 +9,8 @@ from twbr_batch.avoidability import OUTCOMES
 
 def test_the_suite_classifies_every_run_and_writes_its_table_and_figures(tmp_path):
     out = tmp_path / "suite"
-    assert suite.main(["-n", "3", "--scenarios", "trap_small,overtaken_fast", "--out", str(out)]) == 0
+    assert suite.main(["-n", "3", "--scenarios", "trap_small,overtaken_fast", "--methods", "paper,robust", "--out",
+                       str(out)]) == 0
     rows = list(csv.DictReader((out / "runs.csv").open()))
     assert len(rows) == 2 * 2 * 3
     assert {r["outcome"] for r in rows} <= set(OUTCOMES)
@@ -30,7 +31,9 @@ def test_bad_arguments_are_refused_by_name(capsys):
     assert suite.main(["--methods", "paper,clever"]) == 2
     assert "invalid --methods 'paper,clever'" in capsys.readouterr().err
     assert suite.main(["--scenarios", "nowhere"]) == 2
-    assert "nowhere not in the suite" in capsys.readouterr().err
+    assert "invalid --scenarios entry 'nowhere': not a suite name" in capsys.readouterr().err
+    assert suite.main(["--scenarios", "step"]) == 2
+    assert "scenario step has no target" in capsys.readouterr().err
     assert suite.main(["-n", "0"]) == 2
 
 
@@ -40,3 +43,29 @@ def test_the_suite_holds_the_papers_scenarios_and_at_least_ten_of_its_own():
     assert len(names) - 3 >= 10
     for path in suite.suite_scenarios()[3:]:
         assert path.read_text().startswith("# "), f"{path.name} says what it tests"
+
+
+def test_a_users_own_scenario_file_runs_beside_a_suite_name_for_every_method(tmp_path, capsys):
+    lab = tmp_path / "my_lab.yaml"
+    lab.write_text(
+        "# a doorway between two desks, a colleague walking through it\n"
+        "name: my_lab\nduration: 60.0\nend_on_target: true\n"
+        "target: {position: [8.0, 0.0]}\n"
+        "obstacles:\n"
+        "  - {id: 1, position: [4.0, 1.2], radius: 0.6}\n"
+        "  - {id: 2, position: [4.0, -1.2], radius: 0.6}\n"
+        "  - {id: 3, position: [6.0, 3.0], radius: 0.3, motion: waypoints, speed: 0.4,"
+        " waypoints: [[6.0, -3.0], [6.0, 3.0]]}\n")
+    out = tmp_path / "suite"
+    assert suite.main(["-n", "2", "--scenarios", f"{lab},head_on", "--out", str(out), "--no-figures"]) == 0
+    rows = list(csv.DictReader((out / "runs.csv").open()))
+    assert {(r["scenario"], r["variant"]) for r in rows} == {
+        (name, method) for name in ("my_lab", "head_on") for method in ("paper", "robust", "dwa", "vo")}
+    assert {r["outcome"] for r in rows} <= set(OUTCOMES)
+    table = (out / "table.md").read_text()
+    assert all(f"| my_lab | {method} |" in table for method in ("paper", "robust", "dwa", "vo"))
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("target: {position: [8.0, 0.0]}\nobstacles: [{position: [1.0, 1.0], radius: -1}]\n")
+    capsys.readouterr()
+    assert suite.main(["--scenarios", str(broken)]) == 2
+    assert "obstacles[0].radius" in capsys.readouterr().err

@@ -2,6 +2,7 @@
 
     python -m twbr_batch.suite -n 1000                 # or: make suite N=1000
     python -m twbr_batch.suite -n 200 --ablation       # the robust method with each addition off in turn
+    python -m twbr_batch.suite -n 100 --scenarios my_lab.yaml,gap_1m   # your own layouts beside the suite's
 
 Every scenario of config/scenarios/suite and the paper's three navigation scenarios run for n seeds (each
 seed its own layout where the scenario varies, its own target turns) with a 120 s limit. Every run is
@@ -111,6 +112,29 @@ def obstacle_path(scenario: Scenario, seed: int, index: int, t0: float, horizon:
         world.advance_to(t0 + k * DT)
         path[k] = world.obstacle_positions()[index]
     return path
+
+
+def chosen_scenarios(text: str) -> list[Path]:
+    """--scenarios: comma-separated suite names (`gap_1m`), installed names (`suite/gap_1m`, `static`) or a
+    user's scenario files; each must have a target to navigate to."""
+    by_stem = {p.stem: p for p in suite_scenarios()}
+    paths = []
+    for entry in (s.strip() for s in text.split(",")):
+        if not entry:
+            continue
+        try:
+            path = by_stem.get(entry) or find_scenario(entry)
+        except ConfigError as e:
+            raise ConfigError(f"invalid --scenarios entry {entry!r}: not a suite name ({', '.join(sorted(by_stem))})"
+                              f" nor a scenario file: {e}") from None
+        scenario = load_scenario(path)  # a malformed file is refused here, naming its field
+        if scenario.target is None:
+            raise ConfigError(f"invalid --scenarios entry {entry!r}: scenario {scenario.name} has no target to"
+                              " navigate to (the suite measures navigation)")
+        paths.append(path)
+    if not paths:
+        raise ConfigError(f"invalid --scenarios {text!r}: names no scenario")
+    return paths
 
 
 def robot_limits(planner: Mapping[str, Any]) -> Limits:
@@ -256,7 +280,7 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
         writer = csv.DictWriter(f, fieldnames=COLUMNS)
         writer.writeheader()
         for path in paths:
-            name = path.stem
+            name = path.stem if path.stem not in summary else str(path)  # a user's file named like a suite one
             summary[name] = {}
             for variant, planner in variants.items():
                 rows: list[SuiteRow] = []
@@ -286,7 +310,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--methods", default=",".join(METHODS), help="planner methods, comma-separated (default: all)")
     ap.add_argument("--ablation", action="store_true",
                     help="the robust method with each addition switched off in turn, instead of the methods")
-    ap.add_argument("--scenarios", help="only these scenarios (names, comma-separated)")
+    ap.add_argument("--scenarios", help="only these scenarios, comma-separated: suite names (gap_1m), installed"
+                    " names (static, suite/gap_1m) or your own scenario files")
     ap.add_argument("--out", type=Path, default=Path("runs") / "suite")
     ap.add_argument("--no-figures", action="store_true")
     opts = ap.parse_args(argv)
@@ -303,14 +328,7 @@ def main(argv: list[str] | None = None) -> int:
             if unknown or not methods:
                 raise ConfigError(f"invalid --methods {opts.methods!r}: must be some of {', '.join(METHODS)}")
             variants = {m: {"method": m} for m in methods}
-        paths = suite_scenarios()
-        if opts.scenarios:
-            wanted = [s.strip() for s in opts.scenarios.split(",")]
-            known = {p.stem for p in paths}
-            missing = [s for s in wanted if s not in known]
-            if missing:
-                raise ConfigError(f"invalid --scenarios: {', '.join(missing)} not in the suite ({', '.join(sorted(known))})")
-            paths = [p for p in paths if p.stem in wanted]
+        paths = chosen_scenarios(opts.scenarios) if opts.scenarios else suite_scenarios()
     except ConfigError as e:
         print(f"suite: {e}", file=sys.stderr)
         return 2
