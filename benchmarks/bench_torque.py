@@ -4,8 +4,9 @@ controller shapes its references, and the 0.1 m/s step's roll-back.
 Figures per wheel: the largest sample-to-sample change of the commanded torque [N·m] and the torque's power
 above 10 Hz [(N·m)^2, the mean square of the part of the signal above 10 Hz]. "before" is the controller with
 the reference shaping off and the gains of config/controller.yaml before issue 17 (set below); "held" is today's
-controller with each 20 Hz command of omega held as it comes (reference_hold.yaw_rate 0); "shipped" is today's
-defaults (v_ref rate-limited, omega_ref continued along the planner's slope between its commands); "yaw ramp"
+controller with each 20 Hz command of v and omega held as it comes (reference_hold.* 0); "v stepped" holds
+only v's commands as they come (issue 35: the 20 Hz sawtooth while the planner accelerates); "shipped" is
+today's defaults (v_ref and omega_ref continued along the planner's slope between its commands); "yaw ramp"
 instead limits omega_ref's rate to the planner's own max_yaw_acceleration, which spreads each command step
 over a period (and lags the planner by it). Runs are the headless closed loop of the nodes' cores (planner
 included, paper's method as the scenario pins): exactly reproducible.
@@ -32,8 +33,11 @@ BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
     "velocity.derivative_filter": 0.02, "pitch.kp": 42.52, "pitch.ki": 0.0, "pitch.kd": 8.793,
     "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293,
 }
-HELD = {"reference_hold.yaw_rate": 0.0}
+HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0}
+V_STEPPED = {"reference_hold.velocity": 0.0}
 RAMP = {"reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
+PLANNER_HZ = 20.0
+LINE_WINDOW = (15.0, 20.0)  # [s] of make demo's run: the planner accelerating away from the start
 CUTOFF_HZ = 10.0
 
 
@@ -46,6 +50,12 @@ def high_frequency_power(signal: np.ndarray, rate: float, cutoff: float = CUTOFF
     return float(power[freqs > cutoff].sum() / len(signal) ** 2)
 
 
+def line_amplitude(signal: np.ndarray, rate: float, frequency: float) -> float:
+    """[N·m] the amplitude of `signal`'s spectral line nearest `frequency` [Hz]."""
+    spectrum = np.abs(np.fft.rfft(signal - signal.mean())) * 2.0 / len(signal)
+    return float(spectrum[np.argmin(np.abs(np.fft.rfftfreq(len(signal), 1.0 / rate) - frequency))])
+
+
 def torque_figures(control: dict) -> dict:
     sc = load_scenario(find_scenario("dynamic_obstacles"))
     trace = run_closed_loop(sc.duration, planner_reference(), control, scenario=sc, seed=sc.seed,
@@ -56,6 +66,8 @@ def torque_figures(control: dict) -> dict:
         torque = trace[f"{wheel}_torque"]
         out[f"{wheel}_max_step_nm"] = float(np.abs(np.diff(torque)).max())
         out[f"{wheel}_power_above_10hz"] = high_frequency_power(torque, rate)
+        window = (trace.t >= LINE_WINDOW[0]) & (trace.t < LINE_WINDOW[1])
+        out[f"{wheel}_line_20hz_nm"] = line_amplitude(torque[window], rate, PLANNER_HZ)
     step = load_scenario(find_scenario("step"))
     s = run_closed_loop(step.duration, scenario_reference(step), control, scenario=step)
     r = step_response(s.t, s.velocity_true, s["velocity_ref"])
@@ -65,13 +77,14 @@ def torque_figures(control: dict) -> dict:
 
 
 def main() -> int:
-    rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "shipped": torque_figures({}),
-            "yaw ramp": torque_figures(RAMP)}
-    print(f"{'':8} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'step roll-back %':>17}"
-          f" {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
+    rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "v stepped": torque_figures(V_STEPPED),
+            "shipped": torque_figures({}), "yaw ramp": torque_figures(RAMP)}
+    print(f"{'':9} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'20 Hz line 15-20 s L/R N·m':>27}"
+          f" {'step roll-back %':>17} {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
     for name, r in rows.items():
-        print(f"{name:8} {r['left_max_step_nm']:8.4f}/{r['right_max_step_nm']:.4f} "
-              f"{r['left_power_above_10hz']:12.3e}/{r['right_power_above_10hz']:.3e} {r['step_rollback_pct']:17.1f}"
+        print(f"{name:9} {r['left_max_step_nm']:8.4f}/{r['right_max_step_nm']:.4f} "
+              f"{r['left_power_above_10hz']:12.3e}/{r['right_power_above_10hz']:.3e}"
+              f" {r['left_line_20hz_nm']:13.4f}/{r['right_line_20hz_nm']:.4f} {r['step_rollback_pct']:17.1f}"
               f" {r['step_settle_s']:9.3f} {r['step_overshoot_pct']:12.2f} {r['sim_time_s']:6.2f}")
     out = Path(__file__).parent / "results" / "bench_torque.json"
     out.write_text(json.dumps(rows, indent=2) + "\n")

@@ -245,6 +245,45 @@ def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step
     assert np.abs(np.diff(shaped[20:])).max() <= 1.0 / 200.0 + 1e-9  # once the first interval has caught up
 
 
+def _velocity_stream(controller, commands, period=0.05, rate=200.0, limit=None):
+    """As _planner_stream, for v; `limit(t)`: what a collision monitor lets through at t (None: nothing)."""
+    outs, per = [], round(period * rate)
+    for i, v in enumerate(commands):
+        since = (i * per + 1) / rate
+        for j in range(per):
+            t = (i * per + 1 + j) / rate
+            ref = v if limit is None else min(v, limit(t))
+            speed = 0.06 * max(t - period, 0.0)  # a robot on the planner's ramp, not on its staircase
+            outs.append(controller.compute(t, ref, 0.0, speed, 0.0, 0.0, 0.0, command_stamp=since))
+    return outs
+
+
+def test_a_planner_accelerating_reaches_the_velocity_loop_as_a_ramp_without_a_20_hz_sawtooth():
+    """Issue 35: the planner raises v by 0.003 m/s per 50 ms (0.06 m/s^2); held, each command steps v_ref and the
+    velocity loop's proportional term moves the wheel torques in a 20 Hz sawtooth; continued along the slope,
+    v_ref is the ramp itself."""
+    ramp = [0.003 * i for i in range(1, 41)]
+    held = _velocity_stream(make(**{"reference_hold.velocity": 0.0}), ramp)
+    smooth = _velocity_stream(make(**{"reference_hold.velocity": 0.15}), ramp)
+    t = np.array([o.stamp for o in smooth])
+    shaped = np.array([o.velocity_ref_shaped for o in smooth])
+    line = 0.009 + 0.06 * (t - t[20])
+    assert np.abs(shaped[20:] - line[20:]).max() < 1e-9
+    steps = [np.abs(np.diff([o.common_torque for o in outs[20:]])) for outs in (held, smooth)]
+    assert steps[1].max() < 0.3 * steps[0].max()
+    assert steps[1].max() < 1.5 * np.median(steps[1])  # no kick at the commands: every sample alike
+
+
+def test_a_collision_monitor_lowering_v_between_commands_is_not_held_back():
+    """The controller node's collision monitor lowers v_ref sample by sample; the hold must not keep the
+    planner's line until its next command."""
+    c = make(**{"reference_hold.velocity": 0.15, "reference_rate.velocity": 0.0})
+    outs = _velocity_stream(c, [0.003 * i for i in range(1, 21)], limit=lambda t: 0.04 if t > 0.8 else 1.0)
+    for o in outs:
+        if o.stamp > 0.8:
+            assert o.velocity_ref_shaped <= 0.04 + 1e-12
+
+
 def test_a_step_faster_than_the_hold_slope_and_a_silent_planner_pass_at_once():
     """A jump the planner's slew limit cannot make (a step asked for) is not extrapolated: no overshoot of the
     reference; a stale cmd_vel zeroes the reference at once, whatever ramp was under way."""

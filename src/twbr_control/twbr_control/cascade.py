@@ -31,7 +31,7 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
     "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
-    "velocity.measurement_filter",
+    "reference_hold.velocity", "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -45,6 +45,7 @@ C_MAX_GAP = SETTINGS_LAYOUT["max_sample_gap"]
 C_V_RATE = SETTINGS_LAYOUT["reference_rate.velocity"]  # [m/s^2]
 C_W_RATE = SETTINGS_LAYOUT["reference_rate.yaw_rate"]  # [rad/s^2]
 C_W_HOLD = SETTINGS_LAYOUT["reference_hold.yaw_rate"]  # [rad/s^2]
+C_V_HOLD = SETTINGS_LAYOUT["reference_hold.velocity"]  # [m/s^2]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -64,8 +65,8 @@ MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp:
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
     "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
-    ("yaw_rate_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY), ("pitch", N_MEMORY),
-    ("yaw_rate", N_MEMORY),
+    ("yaw_rate_hold", N_HOLD), ("velocity_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY),
+    ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
 K_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 K_HAS_LAST = MEMORY_LAYOUT["has_last"]
@@ -79,6 +80,7 @@ K_V_FILTERED = MEMORY_LAYOUT["velocity_filtered"]
 K_W_FILTERED = MEMORY_LAYOUT["yaw_rate_filtered"]
 K_FILTERS_READY = MEMORY_LAYOUT["filters_ready"]
 K_W_HOLD = MEMORY_LAYOUT["yaw_rate_hold"]
+K_V_HOLD = MEMORY_LAYOUT["velocity_hold"]
 K_LQR_POSITION = MEMORY_LAYOUT["lqr_position"]  # integral of the speed error [m]
 K_LQR_HEADING = MEMORY_LAYOUT["lqr_heading"]  # integral of the yaw-rate error [rad]
 K_VELOCITY = MEMORY_LAYOUT["velocity"]
@@ -236,7 +238,8 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
     `max_slope` (a planner's max_yaw_acceleration) then reaches the loop as the ramp itself, without lag and
     without steps; where the slope changes the line bends instead of jumping. The first command after none
     starts from 0 at `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump steeper than `max_slope`
-    (a step asked for) passes at once; 0: every command held as it is. `h`: the hold's memory (H_*)."""
+    (a step asked for) passes at once; 0: every command held as it is. A command changed between two
+    stamps (the collision monitor's limit, sample by sample) passes as it is. `h`: the hold's memory (H_*)."""
     if max_slope <= 0.0:
         return reference
     if h[H_HAS] == 0.0 or command_stamp > h[H_STAMP]:
@@ -258,6 +261,8 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
         h[H_COMMAND] = reference
         h[H_STAMP] = command_stamp
         h[H_HAS] = 1.0
+    elif reference != h[H_COMMAND]:
+        return reference  # changed since it came (the collision monitor lowered it): that applies at once
     return _segment_at(h, stamp)
 
 
@@ -321,6 +326,7 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         velocity_ref = 0.0
         yaw_rate_ref = 0.0
         k[K_W_HOLD + H_HAS] = 0.0  # no ramp continued past the planner's silence
+        k[K_V_HOLD + H_HAS] = 0.0
     velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
     yaw_rate_ref = _clip(yaw_rate_ref, c[C_MAX_W_REF])
     if abs(pitch - c[C_PITCH_OFFSET]) > c[C_FALL_PITCH] and k[K_FALLEN] == 0.0:
@@ -341,8 +347,10 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     elif k[K_ENABLED] != 0.0 and k[K_FALLEN] == 0.0:
         # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
         # commands) then moves the proportional terms, and the torques, smoothly.
-        _rate_limit(k, K_V_SHAPED, velocity_ref, c[C_V_RATE], dt)
         # (no command: 0 at once, and the hold forgets the stream, so that the next command starts afresh)
+        held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
+            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD])
+        _rate_limit(k, K_V_SHAPED, held_velocity, c[C_V_RATE], dt)
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
             k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD])
         _rate_limit(k, K_W_SHAPED, held_yaw_rate, c[C_W_RATE], dt)

@@ -54,6 +54,11 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " a sample of jitter): its 20 Hz steps reach the yaw-rate loop as the ramp they sample, without lag;"
               " a steeper jump is a step and applies at once; 0: each command held as it comes", "rad/s²",
               0.0, 1000.0),
+    ParamSpec("reference_hold.velocity", 0.15, "between two cmd_vel, v_ref goes on along the commands' slope when"
+              " it is at most this (a planner slewing v at its max_acceleration 0.06 or brake_deceleration 0.12"
+              " m/s², with room for jitter): its 20 Hz steps reach the velocity loop as the ramp they sample, not"
+              " as a torque sawtooth at 20 Hz; a steeper jump is a step (then reference_rate.velocity); 0: each"
+              " command held as it comes", "m/s²", 0.0, 100.0),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",
