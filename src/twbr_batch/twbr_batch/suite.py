@@ -64,6 +64,7 @@ ABLATIONS: dict[str, dict[str, Any]] = {
     "no dynamic repulsion": {"evade_horizon": 0.0},
     "no speed policy": {"speed_policy": False},
     "no safety filter": {"safety_filter": False},
+    "no yielding": {"yield_horizon": 0.0},
 }
 
 

@@ -49,10 +49,11 @@ class Mode(Enum):
     NO_TARGET = "no_target"  # nothing to go to yet: stopped
     ESCAPING = "escaping"  # robust: following an obstacle's boundary out of a local minimum
     EVADING = "evading"  # robust: stepping out of a moving obstacle's path
+    YIELDING = "yielding"  # robust: waiting, stepping aside or backing out for what is coming
 
 
 MODES = tuple(Mode)  # a mode's code in the kernels is its index here
-TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET, ESCAPING, EVADING = range(len(MODES))
+TRACKING, AVOIDING, ARRIVED, FOLLOWING, STUCK, STALE, NO_TARGET, ESCAPING, EVADING, YIELDING = range(len(MODES))
 PAPER, ROBUST, DWA, VO = range(len(METHODS))  # a method's code in the settings vector
 
 # Settings vector: planner_params.APF_SPECS by name (the method by its code).
@@ -93,6 +94,9 @@ A_DWA_CLEARANCE_WEIGHT = SETTINGS_LAYOUT["dwa_clearance_weight"]
 A_DWA_SPEED_WEIGHT = SETTINGS_LAYOUT["dwa_speed_weight"]
 A_DWA_CLEARANCE_CAP = SETTINGS_LAYOUT["dwa_clearance_cap"]
 A_VO_HORIZON = SETTINGS_LAYOUT["vo_horizon"]
+A_YIELD_HORIZON = SETTINGS_LAYOUT["yield_horizon"]
+A_YIELD_UNCERTAINTY = SETTINGS_LAYOUT["yield_uncertainty"]
+A_YIELD_MARGIN = SETTINGS_LAYOUT["yield_margin"]
 # Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
 # it began, whether the last step found no progress, and the side of the last way round).

@@ -74,6 +74,13 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               10.0),
     ParamSpec("safety_lookahead", 0.3, "robust: the barrier is on a point this far ahead of the axle (where the"
               " yaw rate acts too)", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("yield_horizon", 5.0, "robust: how far ahead the command's rollout is checked against the moving"
+              " obstacles' predicted discs; a conflict makes the robot wait, step aside or back out (yielding.py);"
+              " 0 turns it off", "s", 0.0, 60.0),
+    ParamSpec("yield_uncertainty", 0.2, "robust: a moving obstacle's predicted disc grows by this share of the"
+              " distance it walks (it may turn, slow down or stop)", "", 0.0, 10.0),
+    ParamSpec("yield_margin", 0.1, "robust: clearance the look-ahead keeps from the predicted discs", "m", 0.0,
+              10.0),
     # The baseline peers (method: dwa, method: vo); they share v_max, the acceleration limits,
     # brake_deceleration, robot_radius, safety_margin, rho_o (the mode's range), arrival and the stuck report.
     ParamSpec("dwa_horizon", 3.0, "dwa: each (v, omega) is rolled out this long, obstacles at constant velocity",

@@ -81,6 +81,7 @@ from twbr_planner.apf import (
     R_WAY_SIDE,
     STUCK,
     TRACKING,
+    YIELDING,
     arrive,
     attraction,
     command_period,
@@ -91,6 +92,7 @@ from twbr_planner.apf import (
     write_output,
 )
 from twbr_planner.navigation import navigation_direction
+from twbr_planner.yielding import yield_command
 
 FREE_MARGIN = 0.05  # [m] the way is free when it passes every footprint-inflated obstacle by this much
 FREE_STEER = 0.3  # on a free way the repulsion is at most this fraction of the attraction
@@ -507,7 +509,12 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, ta
         if mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
             mode = STUCK
             m[R_STALLED] = 1.0  # the next step follows the boundary, if there is one
-    # 5. the safety filter, then the acceleration limits' memory
+    # 5. yielding to what the look-ahead sees coming, then the safety filter and the acceleration limits' memory
+    if not arrived:
+        v, omega, yielding = yield_command(a, m, x, y, yaw, v, omega, target_x, target_y, positions, velocities,
+                                           radii)
+        if yielding:
+            mode = YIELDING
     binding = -1
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
         v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat)

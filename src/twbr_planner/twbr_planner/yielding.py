@@ -1,0 +1,145 @@
+"""Yielding: the robust method's look-ahead over where the obstacles will be, which waits and backs out.
+
+The field, the evasion and the safety filter act on the present (and the evasion on a straight-line
+closest approach). Among people that is not enough: a person crossing behind the robot, a cart coming
+down a passage the robot has entered, a flow it is about to join. This step looks `yield_horizon` seconds
+ahead. Each obstacle's predicted position is its constant-velocity line, and its predicted disc grows
+with the horizon by `yield_uncertainty` times the distance it walks (people turn, slow down and stop; the
+set of places a walker can be widens with time, after the reachable-set view of Fiorini & Shiller's
+velocity obstacles and the growing-covariance prediction of tracking filters). The robot's rollouts
+reach their command at its acceleration limits (max_acceleration up, brake_deceleration down,
+max_yaw_acceleration), so a stop takes as long as the robot takes to stop.
+
+The field's command is kept while its rollout stays `yield_margin` clear of every moving obstacle's
+predicted disc over the horizon (static ones are the field's and the safety filter's). Otherwise
+candidate commands (forward, standing still, backing away, each turning or not) are rolled out and the
+one whose first conflict comes latest (none: it stays clear) is taken, among equals the one that ends
+nearest the target: the robot waits when going on meets a person, and backs out of a passage
+when standing in it would. Static obstacles are in the same rollouts, so it does not back into a wall.
+Compiled, like the rest of the method; each constant below is a resolution, not a tuning.
+"""
+
+from __future__ import annotations
+
+import math
+
+from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
+from twbr_planner.apf import (
+    A_BRAKE_DECELERATION,
+    A_MAX_ACCELERATION,
+    A_MAX_YAW_ACCELERATION,
+    A_MAX_YAW_RATE,
+    A_ROBOT_RADIUS,
+    A_V_MAX,
+    A_YIELD_HORIZON,
+    A_YIELD_MARGIN,
+    A_YIELD_UNCERTAINTY,
+    R_LAST_OMEGA,
+    R_LAST_V,
+)
+
+ROLLOUT_STEP = 0.25  # [s]
+SPEEDS = 7  # candidate speeds, from -BACK_SHARE * v_max to v_max
+BACK_SHARE = 0.5  # the fastest it backs out, as a share of v_max
+YAW_RATES = 7  # candidate yaw rates, from -max_yaw_rate to max_yaw_rate
+HEADINGS = 12  # candidate headings to steer to, round the circle (the escapes a sideways step needs)
+STEER_GAIN = 2.0  # [1/s] the yaw-rate command towards a candidate heading (the field's K_s)
+OMEGA_WEIGHT = 0.1  # [m s^2] among equally safe candidates: a yaw-rate change against their end's distance
+MOVING = 1e-3  # [m/s] an obstacle slower than this is static
+
+
+@kernel
+def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, velocities, radii, horizon,
+                   moving_only):
+    """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of an
+    obstacle's predicted disc (its line, grown by the uncertainty; only the moving ones when moving_only);
+    `horizon` when it never does; and where the rollout is then. A finite `heading` [rad] steers to it
+    instead of holding w_goal."""
+    steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
+    reach = a[A_ROBOT_RADIUS] + a[A_YIELD_MARGIN]
+    growth = a[A_YIELD_UNCERTAINTY]
+    v = v0
+    w = w0
+    dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
+    for k in range(1, steps + 1):
+        if v_goal > v:
+            v = min(v_goal, v + (a[A_MAX_ACCELERATION] if v >= 0.0 else a[A_BRAKE_DECELERATION]) * ROLLOUT_STEP)
+        else:
+            v = max(v_goal, v - (a[A_BRAKE_DECELERATION] if v > 0.0 else a[A_MAX_ACCELERATION]) * ROLLOUT_STEP)
+        target_w = w_goal
+        if not math.isnan(heading):
+            target_w = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
+        w = min(max(target_w, w - dw), w + dw)
+        yaw += w * ROLLOUT_STEP
+        x += v * math.cos(yaw) * ROLLOUT_STEP
+        y += v * math.sin(yaw) * ROLLOUT_STEP
+        t = k * ROLLOUT_STEP
+        for j in range(radii.shape[0]):
+            vx = velocities[j, 0]
+            vy = velocities[j, 1]
+            if moving_only and vx * vx + vy * vy < MOVING * MOVING:
+                continue
+            ox = positions[j, 0] + vx * t
+            oy = positions[j, 1] + vy * t
+            grown = radii[j] + reach + growth * math.hypot(vx, vy) * t
+            dx = x - ox
+            dy = y - oy
+            if dx * dx + dy * dy < grown * grown:
+                return t - ROLLOUT_STEP, x, y  # the last instant known clear
+    return horizon, x, y
+
+
+@kernel
+def in_reach(a, x, y, positions, velocities, radii, horizon):
+    """Whether a moving obstacle can come near the robot within the horizon (else nothing to yield to)."""
+    reach = a[A_ROBOT_RADIUS] + a[A_YIELD_MARGIN]
+    for j in range(radii.shape[0]):
+        speed = math.hypot(velocities[j, 0], velocities[j, 1])
+        if speed < MOVING:
+            continue
+        gap = math.hypot(positions[j, 0] - x, positions[j, 1] - y) - radii[j] - reach
+        if gap < (a[A_V_MAX] + speed * (1.0 + a[A_YIELD_UNCERTAINTY])) * horizon:
+            return True
+    return False
+
+
+@kernel
+def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y, positions, velocities, radii):
+    """(v, omega, yielding): the field's command if its look-ahead stays clear, else the candidate whose first
+    conflict comes latest (nearest the field's command among equals); yielding when it is not the field's."""
+    horizon = a[A_YIELD_HORIZON]
+    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon):
+        return v_nominal, omega_nominal, False
+    v0 = m[R_LAST_V]
+    w0 = m[R_LAST_OMEGA]
+    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, radii,
+                      horizon, True)[0] >= horizon:
+        return v_nominal, omega_nominal, False  # no moving obstacle in the way: the field's command stands
+    # the rest is judged against every obstacle: backing away from a person must not back into a wall
+    best, ex, ey = first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities,
+                                  radii, horizon, False)
+    best_v = v_nominal
+    best_w = omega_nominal
+    best_cost = math.hypot(target_x - ex, target_y - ey)
+    # two families: hold a yaw rate, or steer to a heading (SPEEDS - 1 forward or backward speeds each)
+    for family in range(2):
+        for i in range(SPEEDS):
+            cv = a[A_V_MAX] * (-BACK_SHARE + (1.0 + BACK_SHARE) * i / (SPEEDS - 1))
+            for k in range(YAW_RATES if family == 0 else HEADINGS):
+                heading = math.nan
+                if family == 0:
+                    cw = a[A_MAX_YAW_RATE] * (2.0 * k / (YAW_RATES - 1) - 1.0)
+                else:
+                    heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
+                    cw = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
+                conflict, ex, ey = first_conflict(a, x, y, yaw, v0, w0, cv, cw, heading, positions, velocities,
+                                                  radii, horizon, False)
+                # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
+                cost = math.hypot(target_x - ex, target_y - ey) + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
+                if conflict > best + 1e-9 or (conflict >= best - 1e-9 and cost < best_cost):
+                    best = conflict
+                    best_v = cv
+                    best_w = cw
+                    best_cost = cost
+    return best_v, best_w, best_v != v_nominal or best_w != omega_nominal
