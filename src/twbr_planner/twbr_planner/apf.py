@@ -327,6 +327,15 @@ def limit_rates(a, m, stamp, v, omega, deceleration):
 
 
 @kernel
+def ramp_speed(a, v, v_goal, dt):
+    """The speed `dt` [s] on from v towards v_goal at the acceleration limits: max_acceleration away from
+    rest, brake_deceleration towards it (a rollout's model of the robot)."""
+    if v_goal > v:
+        return min(v_goal, v + (a[A_MAX_ACCELERATION] if v >= 0.0 else a[A_BRAKE_DECELERATION]) * dt)
+    return max(v_goal, v - (a[A_BRAKE_DECELERATION] if v > 0.0 else a[A_MAX_ACCELERATION]) * dt)
+
+
+@kernel
 def _smooth(a, m, stamp, v, omega):
     """The paper method's limits: the same rate up and down."""
     return limit_rates(a, m, stamp, v, omega, a[A_MAX_ACCELERATION])

@@ -33,7 +33,6 @@ from twbr_planner.apf import (
     A_DWA_SPEED_WEIGHT,
     A_K_P,
     A_K_V,
-    A_MAX_ACCELERATION,
     A_MAX_YAW_ACCELERATION,
     A_MAX_YAW_RATE,
     A_RHO_O,
@@ -52,6 +51,7 @@ from twbr_planner.apf import (
     limit_rates,
     nearest_obstacle,
     no_progress,
+    ramp_speed,
     write_output,
 )
 
@@ -73,10 +73,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii):
     contact = math.inf
     robot_radius = a[A_ROBOT_RADIUS]
     for k in range(1, steps + 1):
-        if v_goal > v:
-            v = min(v_goal, v + a[A_MAX_ACCELERATION] * ROLLOUT_STEP)
-        else:
-            v = max(v_goal, v - a[A_BRAKE_DECELERATION] * ROLLOUT_STEP)
+        v = ramp_speed(a, v, v_goal, ROLLOUT_STEP)
         dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
         w = min(max(w_goal, w - dw), w + dw)
         yaw += w * ROLLOUT_STEP

@@ -26,8 +26,6 @@ import math
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_BRAKE_DECELERATION,
-    A_MAX_ACCELERATION,
     A_MAX_YAW_ACCELERATION,
     A_MAX_YAW_RATE,
     A_ROBOT_RADIUS,
@@ -37,6 +35,7 @@ from twbr_planner.apf import (
     A_YIELD_UNCERTAINTY,
     R_LAST_OMEGA,
     R_LAST_V,
+    ramp_speed,
 )
 
 ROLLOUT_STEP = 0.25  # [s]
@@ -63,10 +62,7 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, vel
     w = w0
     dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
     for k in range(1, steps + 1):
-        if v_goal > v:
-            v = min(v_goal, v + (a[A_MAX_ACCELERATION] if v >= 0.0 else a[A_BRAKE_DECELERATION]) * ROLLOUT_STEP)
-        else:
-            v = max(v_goal, v - (a[A_BRAKE_DECELERATION] if v > 0.0 else a[A_MAX_ACCELERATION]) * ROLLOUT_STEP)
+        v = ramp_speed(a, v, v_goal, ROLLOUT_STEP)
         target_w = w_goal
         if not math.isnan(heading):
             target_w = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
