@@ -28,6 +28,25 @@ def ros_domain() -> int:
     return 120 + (os.getpid() * 7 + next(_domains)) % 100
 
 
+@pytest.fixture(scope="session", autouse=True)
+def busy_loop() -> Iterator[int]:
+    """TWBR_TEST_BUSY=1 (`make e2e-loaded`): one busy loop per core beside the whole session, as on a loaded CI
+    host. The end-to-end tests must pass that way: they judge in sim time and stamps, never in wall time."""
+    if os.environ.get("TWBR_TEST_BUSY", "0") in ("", "0"):
+        yield 0
+        return
+    import subprocess
+    import sys
+
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
+    try:
+        yield len(hogs)
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
+
+
 @pytest.fixture
 def ros_env(ros_domain: int) -> dict[str, str]:
     return loopback_env(ros_domain)
@@ -132,3 +151,35 @@ def small_disk(tmp_path: Path) -> Iterator[Callable[[int], Path]]:
     yield mount
     for where in mounted:
         subprocess.run(["umount", "-l", str(where)], capture_output=True)
+
+
+def stamp_s(msg) -> float:
+    """A message's header stamp in seconds."""
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def contacts_while_driving(world: list, states: list, speed: float = 0.05) -> list[str]:
+    """Every collision that began while the robot drove (|v| > speed at its start), as 't = ... s with id N
+    at v = ... m/s': a robot stopped by a watchdog or a planner without a world can be walked into by a
+    moving obstacle, which is not a planner driving into it."""
+    driving = []
+    was_in_contact = False
+    for w in world:
+        if w.collision and not was_in_contact:
+            t = stamp_s(w)
+            before = [s for s in states if t - 0.2 <= stamp_s(s) <= t]
+            v = max((abs(s.velocity) for s in before), default=float("nan"))
+            if not v <= speed:
+                driving.append(f"t = {t:.2f} s with id {w.collision_obstacle_id} at v = {v:.3f} m/s")
+        was_in_contact = w.collision
+    return driving
+
+
+def after_last_restart(msgs: list) -> list:
+    """The messages after the last backward jump of their stamps (a simulator started again from t = 0):
+    counting messages instead is wrong on a loaded machine, where the old run's last ones arrive late."""
+    start = 0
+    for i in range(1, len(msgs)):
+        if stamp_s(msgs[i]) < stamp_s(msgs[i - 1]) - 1.0:
+            start = i
+    return msgs[start:]

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import contacts_while_driving
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_msgs.msg import ControllerState, PlannerState, SimStatus, WorldStatus
@@ -161,13 +162,18 @@ def test_planner_killed_the_robot_stops_balanced_and_a_restarted_planner_reaches
     os.killpg(planner.proc.pid, signal.SIGKILL)  # no goodbye: cmd_vel just stops
     killed_at = _t(states[-1])  # as this test saw it: the graph may already be a little further on
     timeout = 0.5  # cmd_vel_timeout of config/controller.yaml
-    assert ros.spin_until(lambda: _t(states[-1]) > killed_at + timeout + 4.0, 60.0)
+
+    def stale_from() -> float | None:
+        last_plan = max(_t(p) for p in plans)
+        return next((_t(s) for s in states if _t(s) > last_plan and s.cmd_vel_stale), None)
+
+    # On a loaded machine this test sees the graph late: wait for the watchdog in the stamps, not the clock.
+    assert ros.spin_until(lambda: stale_from() is not None and _t(states[-1]) > stale_from() + 4.0, 60.0)
     # The planner's last output is stamped with the state it answered: the watchdog counts from there
     # (plus the cmd_vel's way to the controller, well under 0.1 s of sim time).
     # The planner is not in the lockstep here: on a loaded machine its last cmd_vel can reach the controller
     # some states after the odom it answered, and the watchdog counts from that arrival.
-    last_plan = max(_t(p) for p in plans)
-    first_stale = next(_t(s) for s in states if _t(s) > last_plan and s.cmd_vel_stale)
+    last_plan, first_stale = max(_t(p) for p in plans), stale_from()
     assert last_plan + timeout - 0.005 <= first_stale <= last_plan + timeout + 0.5, (last_plan, first_stale)
     after = [s for s in states if _t(s) >= first_stale]
     assert all(s.cmd_vel_stale and s.velocity_ref == 0.0 and s.yaw_rate_ref == 0.0 for s in after)
@@ -186,7 +192,10 @@ def test_planner_killed_the_robot_stops_balanced_and_a_restarted_planner_reaches
     assert ros.spin_until(lambda: not sim.running, 120.0)  # the scenario ends on the target reached
     assert sim.wait(timeout=1) == 0, sim.output
     ros.spin_for(0.5)
-    assert any(w.target_reached for w in world) and world[-1].collision_count == 0
+    assert any(w.target_reached for w in world)
+    # Stopped by the watchdog the robot can be walked into by the crossing obstacle (where it stops depends on
+    # when this test saw it driving); it never drives into one, before the kill or after the restart.
+    assert not contacts_while_driving(world, states), contacts_while_driving(world, states)
     assert not any(s.fallen for s in states)
     assert not states[-1].cmd_vel_stale
     reached = next(_t(w) for w in world if w.target_reached)
