@@ -8,9 +8,11 @@ import pytest
 from twbr_common.params import defaults
 from twbr_planner import apf
 from twbr_planner.apf import Mode, Obstacles
+from twbr_planner.evasion import evasion
+from twbr_planner.field import ray_clearance
 from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import APF_SPECS
-from twbr_planner.robust import evasion, ray_clearance, safety_filter
+from twbr_planner.safety_filter import safety_filter
 
 ROBUST = {**defaults(APF_SPECS), "method": "robust"}
 PAPER = {**defaults(APF_SPECS), "method": "paper"}
@@ -239,3 +241,22 @@ def test_a_way_behind_the_robot_is_turned_to_the_way_it_already_turns():
     assert out.yaw_rate_cmd > 0.1
     fresh = settled(ApfPlanner(ROBUST), 0.0, 0.0, 0.0, 0.0, Target(-5.0, -0.4, 0.0, 0.0), Obstacles.empty(), steps=10)
     assert fresh.yaw_rate_cmd < -0.1
+
+
+def test_a_step_reads_no_distance_it_has_not_computed():
+    # `distances` is the step's scratch output (the field fills it): the method's pieces, one module each,
+    # must read it only after the field ran, whatever the buffer held before.
+    from twbr_planner.robust import robust_step
+
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        n = int(rng.integers(1, 10))
+        positions, radii = rng.uniform(-3.0, 3.0, (n, 2)), rng.uniform(0.2, 0.6, n)
+        velocities = rng.uniform(-0.5, 0.5, (n, 2)) * (rng.random((n, 1)) < 0.5)
+        outs = []
+        for fill in (np.nan, 0.0, 1e9):
+            out, m, ring = np.zeros(apf.N_OUTPUTS), memory(), np.zeros((200, apf.PROGRESS_COLUMNS))
+            robust_step(A, m, ring, out, 1.0, -4.0, 0.2, 0.1, 0.3, 5.0, 0.0, 0.0, 0.0, positions, velocities, radii,
+                        np.full(n, fill))
+            outs.append(np.concatenate([out, m]))
+        assert np.array_equal(outs[0], outs[1], equal_nan=True) and np.array_equal(outs[0], outs[2], equal_nan=True)

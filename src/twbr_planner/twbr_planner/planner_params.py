@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -54,10 +55,34 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " it off", "m", 0.0, 100.0),
     ParamSpec("follow_clearance", 0.45, "robust: clearance kept while following a boundary (the escape where no"
               " way leads to the target)", "m", 0.0, 100.0, low_open=True),
+    ParamSpec("follow_gain", 2.0, "robust: how hard boundary following corrects its distance to the boundary",
+              "1/m", 0.0, 100.0),
+    ParamSpec("leave_progress", 0.2, "robust: the escape ends once this much closer to the target than where it"
+              " began (and the way towards the target is free)", "m", 0.0, 100.0),
+    ParamSpec("follow_flip_time", 40.0, "robust: boundary following on one side this long without leaving turns"
+              " to the other side", "s", 0.0, 1e4, low_open=True),
+    ParamSpec("free_margin", 0.05, "robust: the way is free when it passes every footprint-inflated obstacle by"
+              " this much", "m", 0.0, 10.0),
+    ParamSpec("free_steer", 0.3, "robust: on a free way the repulsion steers with at most this fraction of the"
+              " attraction", "", 0.0, 100.0),
+    ParamSpec("way_look", 1.4, "robust: a way round a blocked straight way must be free this far (or to the"
+              " target)", "m", 0.0, 100.0, low_open=True),
+    ParamSpec("way_fan_step", math.pi / 24.0, "robust: angle between the directions tried for a way round",
+              "rad", 0.0, math.pi, low_open=True),
+    ParamSpec("way_fan_steps", 10, "robust: directions tried for a way round on each side (10 x pi/24: up to 75"
+              " degrees from the target's direction); 0 turns the way round off", "", 0, 100),
     ParamSpec("evade_horizon", 8.0, "robust: a moving obstacle whose closest approach comes within this time"
               " pushes the robot out of its path; 0 turns it off", "s", 0.0, 1000.0),
     ParamSpec("evade_margin", 0.4, "robust: an approach closer than this to the footprint is a threat", "m",
               0.0, 100.0),
+    ParamSpec("evade_switch", 0.3, "robust: a dead-on threat is passed on the side first chosen until the other"
+              " side is this much clearer", "m", 0.0, 10.0),
+    ParamSpec("reverse_below", 0.05, "robust: a robot slower than this backs out of a threat's path when the way"
+              " out is behind it (instead of turning on the spot first)", "m/s", 0.0, 10.0),
+    ParamSpec("behind_angle", math.pi - 0.5, "robust: a heading error beyond this is nearly behind: the robot turns"
+              " on the way it already turns", "rad", 0.0, math.pi),
+    ParamSpec("turning_yaw_rate", 0.05, "robust: a robot turning faster than this keeps its turn's direction"
+              " towards a way behind it", "rad/s", 0.0, 20.0),
     ParamSpec("evade_gain", 1.5, "robust: safety factor on the sideways distance out of a threat's path against"
               " the distance the robot can drive before the closest approach (their ratio, at most 1, weighs the"
               " way out against the field's direction)", "", 0.0, 1000.0),
@@ -74,6 +99,15 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               10.0),
     ParamSpec("safety_lookahead", 0.3, "robust: the barrier is on a point this far ahead of the axle (where the"
               " yaw rate acts too)", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("safety_speed_samples", 5, "robust: forward speeds the safety filter tries within one period's"
+              " acceleration", "", 2, 100),
+    ParamSpec("safety_yaw_rate_samples", 11, "robust: yaw rates the safety filter tries within one period's yaw"
+              " acceleration", "", 2, 100),
+    ParamSpec("safety_yaw_rate_weight", 0.1, "robust: the safety filter's cost of a yaw-rate change against a"
+              " speed change", "s²", 0.0, 1000.0),
+    ParamSpec("safety_moving_near", 0.5, "robust: an obstacle faster than the robot is guarded against only"
+              " within this clearance (farther, evasion handles it: a barrier would turn the robot along its"
+              " path)", "m", 0.0, 100.0),
     ParamSpec("yield_horizon", 5.0, "robust: how far ahead the command's rollout is checked against the moving"
               " obstacles' predicted discs; a conflict makes the robot wait, step aside or back out (yielding.py);"
               " 0 turns it off", "s", 0.0, 60.0),
