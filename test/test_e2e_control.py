@@ -209,7 +209,10 @@ def test_stale_cmd_vel_zeroes_the_references_and_the_robot_balances_in_place(lau
 
 
 def test_nan_cmd_vel_never_reaches_the_motors_and_stamped_cmd_vel_works(launch, ros):
-    h = ControllerHarness(launch, ros, stamped=True)
+    # Real time, as a robot runs: this test stamps its commands with the newest state it has seen, and in
+    # lockstep on a loaded host it saw states more than cmd_vel_timeout (0.5 s) of sim time late, so the
+    # controller rightly dropped even the good ones as stale.
+    h = ControllerHarness(launch, ros, stamped=True, sim_args=("-p", "mode:=realtime"))
     good, bad = TwistStamped(), TwistStamped()
     good.twist.angular.z = 0.5
     bad.twist.linear.x = math.nan

@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -192,7 +193,9 @@ def test_planner_killed_the_robot_stops_balanced_and_a_restarted_planner_reaches
     assert ros.spin_until(lambda: not sim.running, 120.0)  # the scenario ends on the target reached
     assert sim.wait(timeout=1) == 0, sim.output
     ros.spin_for(0.5)
-    assert any(w.target_reached for w in world)
+    modes = Counter(p.mode for p in plans if _t(p) > restarted_at)
+    assert any(w.target_reached for w in world), (f"t = {_t(world[-1]):.1f} s, {world[-1].target_distance:.2f} m"
+                                                  f" from the target; modes since the restart: {dict(modes)}")
     # Stopped by the watchdog the robot can be walked into by the crossing obstacle (where it stops depends on
     # when this test saw it driving); it never drives into one, before the kill or after the restart.
     assert not contacts_while_driving(world, states), contacts_while_driving(world, states)

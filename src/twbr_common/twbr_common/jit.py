@@ -28,7 +28,8 @@ import contextlib
 import hashlib
 import importlib.util
 import os
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from twbr_common.deploy import JIT_ENV as ENV
@@ -65,6 +66,23 @@ def _package_dirs() -> list[Path]:
 def cache_dir() -> Path:
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     return base / "twbr" / "numba" / source_digest(_package_dirs())
+
+
+def loading_kernels(log: Callable[[str], None], what: str, first_run_s: float) -> Callable[[], None]:
+    """Say before loading `what`'s kernels that a first run after a change of the sources compiles them
+    (~first_run_s), and return the call that says, after, how long it took when it compiled."""
+    if not COMPILED:
+        return lambda: None
+    log(f"loading {what}'s compiled kernels (the first run after a change of the sources compiles them:"
+        f" ~{first_run_s:.0f} s on 2 cores; cached in {numba.config.CACHE_DIR})")
+    started = time.monotonic()
+
+    def done() -> None:
+        took = time.monotonic() - started
+        if took > 3.0:
+            log(f"compiled {what}'s kernels in {took:.1f} s (the next start loads them in ~1 s)")
+
+    return done
 
 
 FASTMATH: set[str] = set()

@@ -31,6 +31,7 @@ from twbr_common.cdr import OdomPose, header_stamp_seconds, odom_pose
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
+from twbr_common.jit import loading_kernels
 from twbr_common.markers import arrow
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
@@ -53,7 +54,9 @@ class PlannerNode(Node):
         self.limits = limits_from_file(cfg["robot_file"])
         self.cfg = check_within_robot(cfg, self.limits)
         self.core = ApfPlanner(self.cfg, self.cfg["rate"])
+        loaded = loading_kernels(self.get_logger().info, "the planner", 25.0)
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
+        loaded()
         self.inputs = input_streams(self)
         self.inputs.add("odom", self.cfg["odom_timeout"], limit=POSITION_LIMIT)
         # Stale on arrival, out of order or unstamped: a bad world sample must never replace a good one.
