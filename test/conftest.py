@@ -52,8 +52,20 @@ def ros_env(ros_domain: int) -> dict[str, str]:
     return loopback_env(ros_domain)
 
 
+@pytest.fixture(scope="session")
+def node_kernels() -> None:
+    """The compiled nodes' kernels in the cache before the first node starts: planner_node compiles by
+    default, and its first start after a source change would spend ~25 s compiling inside a test's timeouts."""
+    import subprocess
+    import sys
+
+    warm = ("from twbr_planner.planner import ApfPlanner; from twbr_planner.planner_params import resolve;"
+            " ApfPlanner(resolve({})).warm_up()")
+    subprocess.run([sys.executable, "-c", warm], check=True, timeout=600)
+
+
 @pytest.fixture
-def launch(ros_env: dict[str, str], tmp_path: Path) -> Iterator[Callable[..., NodeProcess]]:
+def launch(ros_env: dict[str, str], tmp_path: Path, node_kernels: None) -> Iterator[Callable[..., NodeProcess]]:
     """Start `package executable` with ROS arguments as a separate process; all are stopped afterwards."""
     started: list[NodeProcess] = []
 
