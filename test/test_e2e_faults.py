@@ -221,13 +221,12 @@ def test_controller_killed_the_robot_side_zeroes_the_torque_reports_it_and_nothi
 
     os.killpg(controller.proc.pid, signal.SIGKILL)
     killed, killed_sim = time.monotonic(), _t(status[-1])
-    assert ros.spin_until(lambda: status[-1].command_stale, 5.0), sim.output
+    assert ros.spin_until(lambda: status[-1].command_stale, 30.0), sim.output  # patience, judged in stamps below
     noticed = time.monotonic() - killed
     # command_timeout is 0.1 s of sim time; statuses come at 20 Hz and this test sees the graph a little late.
     # Judged in sim time: a stall of the whole machine (seen once in CI: 1.6 s) stops sim time too.
     first_stale = next(_t(m) for m in status if m.command_stale and _t(m) > 1.0)
     assert first_stale <= killed_sim + 0.1 + 0.15, (killed_sim, first_stale)
-    assert noticed < 5.0  # and nothing hangs
     received = status[-1].commands_received
     assert ros.spin_until(lambda: status[-1].fallen, 10.0)  # zero torque: a balancing robot falls over
     print(f"controller killed at t >= {killed_sim:.3f} s: command_stale after {noticed * 1e3:.0f} ms wall"
@@ -238,10 +237,8 @@ def test_controller_killed_the_robot_side_zeroes_the_torque_reports_it_and_nothi
     assert status[-1].commands_received == received  # nothing drove the wheels since
     assert status[-1].steps > steps and len(cmd_vel) > n_cmd  # the simulator and the planner still run
     assert "zero torque" in sim.stderr  # and the simulator said why
-    for proc in (sim, planner):
-        started = time.monotonic()
-        assert proc.stop(timeout=10) == 0, proc.output
-        assert time.monotonic() - started < 5.0
+    for proc in (sim, planner):  # nothing hangs: each ends on SIGINT (exit 0), not on the SIGKILL after 20 s
+        assert proc.stop(timeout=20) == 0, proc.output
 
 
 @pytest.mark.long  # two runs through the runner (~60 s): make test-long; the parts are unit-tested in test_cdr,

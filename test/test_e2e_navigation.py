@@ -146,22 +146,30 @@ def test_planner_node_stops_the_robot_when_the_world_goes_stale(launch, ros):
             obstacles.header.stamp = stamp
             obstacles.obstacles = [Obstacle(id=1, position=Point(x=4.0, y=3.0), radius=0.5)]
             pub_obstacles.publish(obstacles)
+            world_live["last"] = stamp.sec + stamp.nanosec * 1e-9
 
-    def run_for(seconds: float) -> None:
-        end = time.monotonic() + seconds
+    def run_until(condition, patience: float) -> bool:
+        """Publish odom (and the world while live) every 20 ms until condition(): wall time is only patience
+        here (the node's clock is the wall clock, use_sim_time false); what is judged are the stamps."""
+        end = time.monotonic() + patience
         while time.monotonic() < end:
             tick()
             ros.spin_for(0.02)
+            if condition():
+                return True
+        return False
 
-    run_for(3.0)
-    assert states, planner.output
+    assert run_until(lambda: cmds and states and states[-1].velocity_cmd > 0.0, 60.0), planner.output
     live = states[-1]
     assert live.mode == "tracking" and live.velocity_cmd > 0.0 and cmds[-1].linear.x > 0.0
     assert live.distance_to_target == pytest.approx(8.0)
     assert live.nearest_obstacle_id == 1 and live.nearest_obstacle_distance == pytest.approx(5.0 - 0.5 - 0.3)
     world_live["on"] = False
-    run_for(1.5)  # world_timeout is 0.5 s
-    assert states[-1].mode == "stale"
+    assert run_until(lambda: states[-1].mode == "stale", 30.0), planner.output
+    stale = next(p for p in states if p.mode == "stale")
+    stale_at = stale.header.stamp.sec + stale.header.stamp.nanosec * 1e-9
+    assert stale_at - world_live["last"] > 0.5  # world_timeout is 0.5 s, against the last world sample's stamp
+    assert run_until(lambda: cmds[-1].linear.x == 0.0, 5.0)
     assert cmds[-1].linear.x == 0.0 and cmds[-1].angular.z == 0.0
     assert "older than world_timeout" in planner.output
 

@@ -41,7 +41,8 @@ def test_a_runner_killed_with_sigkill_leaves_no_node_behind_and_a_closed_bag(tmp
                                "--quiet", "--no-figures"], env=ros_env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
     try:
-        recorded_file(tmp_path, "*/bag/*.mcap", 2_000_000, 90)  # driving, not just started
+        driving = recorded_file(tmp_path, "*/bag/*.mcap", 2_000_000, 90)  # driving, not just started
+        assert driving is not None, "the recorder wrote under 2 MB in 90 s"
         nodes = _children(runner.pid)
     finally:
         runner.kill()  # also when the wait above fails: its nodes go with it

@@ -18,8 +18,11 @@ from twbr_sim.robot_params import ROBOT_SPECS
 
 
 def test_robot_layout_holds_every_robot_parameter_by_name_then_the_derived_constants():
-    names = [s.name for s in ROBOT_SPECS]
-    assert list(robot_params.ROBOT_LAYOUT.names[: len(names)]) == names
+    # A distinct value per parameter comes back from the slot of its name, and the derived constants follow.
+    distinct = {s.name: 0.01 * (i + 1) for i, s in enumerate(ROBOT_SPECS) if s.kind is float}
+    p = robot_params.robot_params(distinct)
+    for name, value in distinct.items():
+        assert p[robot_params.ROBOT_LAYOUT[name]] == value, name
     p = robot_params.robot_params({"wheel_radius": 0.123, "fall_limit": 0.7})
     assert p[robot_params.P_R] == 0.123 and p[robot_params.P_FALL] == 0.7
     assert p[robot_params.D_INV_R] == 1.0 / 0.123
@@ -49,8 +52,13 @@ def test_pid_gains_layout_is_the_dataclass_fields():
 
 
 def test_planner_settings_are_the_apf_specs_by_name():
-    assert apf.SETTINGS_LAYOUT.names == tuple(s.name for s in APF_SPECS)
     g = {s.name: float(i + 1) for i, s in enumerate(APF_SPECS)}
+    # every A_ index the kernels read is the slot of the parameter it is named after
+    indices = {name[2:].lower(): getattr(apf, name) for name in dir(apf) if name.startswith("A_")}
+    assert set(indices) == set(g)
+    a = apf.settings_vector({**g, "method": "robust"})
+    for name, index in indices.items():
+        assert name == "method" or a[index] == g[name], name
     for method, code in (("paper", apf.PAPER), ("robust", apf.ROBUST)):
         a = apf.settings_vector({**g, "method": method})
         assert a[apf.A_METHOD] == code
@@ -67,7 +75,6 @@ def test_planner_outputs_are_named_like_planner_output():
 
 
 def test_state_layout_is_the_state_names():
-    assert dynamics.STATE_LAYOUT.names == dynamics.STATE_NAMES
     s = dynamics.initial_state(1.0, 2.0, 0.3, 0.01)
     assert (s[dynamics.S_XC], s[dynamics.S_YC], s[dynamics.S_PSI], s[dynamics.S_TH]) == (1.0, 2.0, 0.3, 0.01)
     assert s.shape == (len(dynamics.STATE_LAYOUT),) and np.count_nonzero(s) == 4
@@ -79,3 +86,17 @@ def test_lqr_gains_fill_their_block_only_for_the_lqr_law():
     c = cascade.settings_vector({**cfg, "controller": "lqr"})
     assert c[cascade.C_CONTROLLER] == 1.0
     assert np.all(c[cascade.SETTINGS_LAYOUT.block("lqr")] != 0.0)
+
+
+def test_each_index_prefix_names_one_layout_in_the_project():
+    """`R_LAST_V` is the planner's memory and nothing else: a prefix shared by two layouts (the IMU's reading
+    was R_ too) lets an index of one be read into the other without any error."""
+    import re
+    from pathlib import Path
+
+    owners: dict[str, set[tuple[str, str]]] = {}
+    for path in sorted((Path(__file__).parents[1] / "src").glob("*/*/*.py")):
+        for prefix, layout in re.findall(r"^([A-Z]{1,3})_[A-Z0-9_]+ = ([A-Z_]*LAYOUT)\[", path.read_text(), re.M):
+            owners.setdefault(prefix, set()).add((path.name, layout))
+    assert len(owners) > 20  # the scan finds the layouts
+    assert {p: o for p, o in owners.items() if len(o) > 1} == {}

@@ -85,7 +85,7 @@ from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_s
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
 from twbr_sim.encoders import new_memory as new_encoder_memory
 from twbr_sim.encoders import settings_vector as encoder_vector
-from twbr_sim.imu import IMU_STREAM, N_READING, R_ACCEL, R_GYRO, R_PITCH, imu_init, imu_sample
+from twbr_sim.imu import IMU_STREAM, N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, imu_init, imu_sample
 from twbr_sim.imu import new_memory as new_imu_memory
 from twbr_sim.imu import settings_vector as imu_vector
 from twbr_sim.noise import new_generator
@@ -384,11 +384,11 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents
             odom_yaw = odometry[j, J_YAW]
             odom_velocity = odometry[j, J_VELOCITY]
             yaw_rate = odometry[j, J_YAW_RATE]
-            pitch = reading[j, R_PITCH]
-            pitch_rate = reading[j, R_GYRO + 1]
+            pitch = reading[j, RD_PITCH]
+            pitch_rate = reading[j, RD_GYRO + 1]
             if estimate:
-                estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, R_ACCEL],
-                                 reading[j, R_ACCEL + 2], odom_velocity)
+                estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, RD_ACCEL],
+                                 reading[j, RD_ACCEL + 2], odom_velocity)
                 pitch = estimator_m[j, E_PITCH]
                 pitch_rate = estimator_m[j, E_PITCH_RATE]
         if friction > 0.0:

@@ -29,7 +29,7 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORL
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.collision_monitor import CollisionMonitor
-from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent, check_within_robot
+from twbr_control.controller_params import CONTROL_SPECS, NODE_SPECS, check_consistent, check_within_robot, describe
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import Action, RobotState, StateSync, VelocityCommand
 from twbr_msgs.msg import ControllerState, ObstacleArray, WheelTorques
@@ -75,7 +75,7 @@ class ControllerNode(Node):
         accept_changes(self, (*CONTROL_SPECS, *NODE_SPECS), self.cfg,
                        lambda c: check_within_robot(check_consistent(c), self.limits), self._retune)
         self.get_logger().info(
-            f"cascaded PID at up to {cfg['rate']:g} Hz, pitch from {cfg['pitch_source']},"
+            f"{describe(cfg)},"
             f" cmd_vel as {'TwistStamped' if stamped else 'Twist'},"
             f" {'enabled' if cfg['start_enabled'] else 'disabled until ~/enable'}"
         )

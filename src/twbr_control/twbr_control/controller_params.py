@@ -136,3 +136,14 @@ def resolve(overrides: Mapping[str, Any] | None = None) -> dict:
     (against the installed robot.yaml)."""
     cfg = check_consistent(validate_all(CONTROL_SPECS, {**defaults(CONTROL_SPECS), **(overrides or {})}))
     return check_within_robot(cfg, limits_from_file(""))
+
+
+def describe(cfg: Mapping[str, Any]) -> str:
+    """What this controller runs, for its start-up log line (the law named by `controller`, not always PID)."""
+    if cfg["controller"] == "lqr":
+        law = "LQR on the linearised model (speed and yaw rate with integral action; gains designed at start-up)"
+    else:
+        law = (f"cascaded PID (speed -> pitch -> torque, K_p {cfg['velocity.kp']:g} / {cfg['pitch.kp']:g}) and a PI"
+               f" yaw-rate loop (K_p {cfg['yaw_rate.kp']:g})")
+    return f"{law} at up to {cfg['rate']:g} Hz, pitch from {cfg['pitch_source']}"
+

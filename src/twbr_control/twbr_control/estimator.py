@@ -35,11 +35,11 @@ STILL_PITCH = 0.05  # [rad] the same for the accelerometer's pitch
 
 SETTINGS_LAYOUT = Layout(("time_constant", "bias_time_constant", "max_gap", "velocity_time_constant",
                           "calibration_time"))
-Q_TAU = SETTINGS_LAYOUT["time_constant"]
-Q_TAU_BIAS = SETTINGS_LAYOUT["bias_time_constant"]  # 0: no bias estimation
-Q_MAX_GAP = SETTINGS_LAYOUT["max_gap"]  # a longer gap between readings starts afresh from the accelerometer
-Q_TAU_VELOCITY = SETTINGS_LAYOUT["velocity_time_constant"]  # 0: the odometry's speed as it is
-Q_CALIBRATION = SETTINGS_LAYOUT["calibration_time"]  # [s] the gyro bias is the mean reading this long at start
+ES_TAU = SETTINGS_LAYOUT["time_constant"]
+ES_TAU_BIAS = SETTINGS_LAYOUT["bias_time_constant"]  # 0: no bias estimation
+ES_MAX_GAP = SETTINGS_LAYOUT["max_gap"]  # a longer gap between readings starts afresh from the accelerometer
+ES_TAU_VELOCITY = SETTINGS_LAYOUT["velocity_time_constant"]  # 0: the odometry's speed as it is
+ES_CALIBRATION = SETTINGS_LAYOUT["calibration_time"]  # [s] the gyro bias is the mean reading this long at start
 N_SETTINGS = len(SETTINGS_LAYOUT)
 MEMORY_LAYOUT = Layout(("pitch", "pitch_rate", "bias", "velocity", "last_stamp", "initialised",
                         "accel_pitch", "gyro", "velocity_estimate", "calibration_elapsed", "calibration_readings",
@@ -77,15 +77,15 @@ def estimator_reset(m):
 def estimator_update(q, m, stamp, gyro_y, accel_x, accel_z, velocity):
     """Take one reading stamped `stamp` [s]: gyro about y [rad/s], specific force along x and z [m/s^2], and
     the odometry's forward speed [m/s]. The estimate is m[E_PITCH], m[E_PITCH_RATE]."""
-    tau = q[Q_TAU]
+    tau = q[ES_TAU]
     dt = stamp - m[E_LAST_STAMP]
-    if m[E_INITIALISED] == 0.0 or not dt > 0.0 or dt > q[Q_MAX_GAP]:
+    if m[E_INITIALISED] == 0.0 or not dt > 0.0 or dt > q[ES_MAX_GAP]:
         # First reading, time going back or a gap: start from the accelerometer, keep the bias learnt.
         m[E_VELOCITY] = velocity
         m[E_PITCH] = math.atan2(-accel_x, accel_z)
         m[E_ACCEL_PITCH] = m[E_PITCH]
         m[E_VELOCITY_ESTIMATE] = velocity
-        if m[E_INITIALISED] == 0.0 and q[Q_CALIBRATION] > 0.0:  # only at start, never after a gap
+        if m[E_INITIALISED] == 0.0 and q[ES_CALIBRATION] > 0.0:  # only at start, never after a gap
             m[E_BIAS] = gyro_y
             m[E_CALIBRATION_READINGS] = 1.0
             m[E_CALIBRATING] = 1.0
@@ -106,7 +106,7 @@ def estimator_update(q, m, stamp, gyro_y, accel_x, accel_z, velocity):
             m[E_PITCH] += (accel_pitch - m[E_PITCH]) / n
             m[E_ACCEL_PITCH] = accel_pitch
             m[E_CALIBRATION_ELAPSED] += dt
-            if m[E_CALIBRATION_ELAPSED] >= q[Q_CALIBRATION]:
+            if m[E_CALIBRATION_ELAPSED] >= q[ES_CALIBRATION]:
                 m[E_CALIBRATING] = 0.0
     else:
         m[E_VELOCITY] += dt / (ACCELERATION_FILTER + dt) * (velocity - m[E_VELOCITY])
@@ -116,12 +116,12 @@ def estimator_update(q, m, stamp, gyro_y, accel_x, accel_z, velocity):
         predicted = m[E_PITCH] + (0.5 * (gyro_y + m[E_GYRO]) - m[E_BIAS]) * dt  # trapezoidal
         error = accel_pitch - predicted
         m[E_PITCH] = predicted + dt / (tau + dt) * error
-        if q[Q_TAU_BIAS] > 0.0:
-            m[E_BIAS] -= error * dt / (tau * q[Q_TAU_BIAS])
+        if q[ES_TAU_BIAS] > 0.0:
+            m[E_BIAS] -= error * dt / (tau * q[ES_TAU_BIAS])
         # Speed: the accelerometer's forward acceleration (its specific force turned level by the pitch)
         # integrated, pulled to the odometry's speed with its own time constant.
         # (An accelerometer bias b leaves it b * tau_v off: 5 mm/s for 5 mg at 0.1 s, inside the loop's 2 %.)
-        tau_v = q[Q_TAU_VELOCITY]
+        tau_v = q[ES_TAU_VELOCITY]
         if tau_v > 0.0:
             pitch = m[E_PITCH]
             forward = accel_x * math.cos(pitch) + accel_z * math.sin(pitch)

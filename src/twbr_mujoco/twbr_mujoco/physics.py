@@ -23,12 +23,12 @@ from twbr_mujoco.motor import advance_current
 from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
-from twbr_sim.imu import N_READING, R_ACCEL, R_GYRO, R_PITCH, R_ROLL, R_YAW
+from twbr_sim.imu import N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, RD_ROLL, RD_YAW
 from twbr_sim.robot_params import P_FALL, robot_params
 from twbr_sim.scenario import Scenario
 from twbr_sim.simulator import SensorSample, Simulator
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
-from twbr_sim.traction import T_DEMAND_LEFT, T_DEMAND_RIGHT, T_NORMAL_LEFT, T_NORMAL_RIGHT
+from twbr_sim.traction import TF_DEMAND_LEFT, TF_DEMAND_RIGHT, TF_NORMAL_LEFT, TF_NORMAL_RIGHT
 
 
 def euler_zyx(quat: np.ndarray) -> tuple[float, float, float]:
@@ -156,9 +156,9 @@ class MujocoSimulator(Simulator):
         """The IMU reading without noise (R_* layout): orientation, MuJoCo's gyro and accelerometer."""
         out = np.zeros(N_READING)
         d = self.data
-        out[R_ROLL], out[R_PITCH], out[R_YAW] = self.roll, self.state[dyn.S_TH], self.state[dyn.S_PSI]
-        out[R_GYRO:R_GYRO + 3] = d.sensordata[self._gyro:self._gyro + 3]
-        out[R_ACCEL:R_ACCEL + 3] = d.sensordata[self._accel:self._accel + 3]
+        out[RD_ROLL], out[RD_PITCH], out[RD_YAW] = self.roll, self.state[dyn.S_TH], self.state[dyn.S_PSI]
+        out[RD_GYRO:RD_GYRO + 3] = d.sensordata[self._gyro:self._gyro + 3]
+        out[RD_ACCEL:RD_ACCEL + 3] = d.sensordata[self._accel:self._accel + 3]
         return out
 
     def wheel_contacts(self) -> np.ndarray:
@@ -193,8 +193,8 @@ class MujocoSimulator(Simulator):
             encoders[J_RATE_LEFT], encoders[J_RATE_RIGHT] = self.spin_rates
         contacts = self.wheel_contacts()
         loads = np.zeros(N_TRACTION_OUTPUTS)
-        loads[T_NORMAL_LEFT], loads[T_NORMAL_RIGHT] = contacts[:, 0]
-        loads[T_DEMAND_LEFT], loads[T_DEMAND_RIGHT] = contacts[:, 1]
+        loads[TF_NORMAL_LEFT], loads[TF_NORMAL_RIGHT] = contacts[:, 0]
+        loads[TF_DEMAND_LEFT], loads[TF_DEMAND_RIGHT] = contacts[:, 1]
         lifted = slipping = False
         if not self.fallen:
             lifted = bool((contacts[:, 0] <= 0.0).any())

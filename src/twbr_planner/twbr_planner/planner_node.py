@@ -39,7 +39,7 @@ from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
 from twbr_planner.apf import Mode, Obstacles
 from twbr_planner.planner import ApfPlanner, PlannerOutput, Target
-from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent, check_within_robot
+from twbr_planner.planner_params import APF_SPECS, NODE_SPECS, check_consistent, check_within_robot, describe
 from twbr_sim.robot_limits import limits_from_file
 
 FORCE_COLORS = {"attractive": (0.1, 0.8, 0.2, 1.0), "repulsive": (0.9, 0.2, 0.2, 1.0), "total": (0.2, 0.4, 1.0, 1.0)}
@@ -85,11 +85,7 @@ class PlannerNode(Node):
         self.parameter_revision = 0
         accept_changes(self, (*APF_SPECS, *NODE_SPECS), self.cfg,
                        lambda c: check_within_robot(check_consistent(c), self.limits), self._retune)
-        self.get_logger().info(
-            f"APF planner at {self.cfg['rate']:g} Hz: K_p {self.cfg['k_p']:g}, K_v {self.cfg['k_v']:g},"
-            f" K_o {self.cfg['k_o']:g}, rho_o {self.cfg['rho_o']:g} m, K_s {self.cfg['k_s']:g},"
-            f" v_max {self.cfg['v_max']:g} m/s"
-        )
+        self.get_logger().info(f"planning at {self.cfg['rate']:g} Hz with {describe(self.cfg)}")
 
     # --- inputs -------------------------------------------------------------------------------
     def _now(self) -> float:

@@ -189,3 +189,30 @@ def resolve(overrides: Mapping[str, Any] | None = None, scenario: Any = None) ->
             raise ConfigError(f"scenario {scenario.name!r}, field 'planner': {e}") from None
     cfg = check_consistent(validate_all(APF_SPECS, {**defaults(APF_SPECS), **pinned, **(overrides or {})}))
     return check_within_robot(cfg, limits_from_file(""))
+
+
+# The robust method's additions and the value of the parameter that switches each off (docs/planner.md).
+ROBUST_ADDITIONS = (("goal-reachable field", "goal_fade", 0.0), ("escape", "follow_range", 0.0),
+                    ("evasion", "evade_horizon", 0.0), ("speed policy", "speed_policy", False),
+                    ("yielding", "yield_horizon", 0.0), ("safety filter", "safety_filter", False))
+
+
+def describe(cfg: Mapping[str, Any]) -> str:
+    """What this planner runs, for its start-up log line: the method, and the settings that shape it."""
+    method = cfg["method"]
+    limits = f"v_max {cfg['v_max']:g} m/s, max_yaw_rate {cfg['max_yaw_rate']:g} rad/s"
+    if method == "paper":
+        return (f"the paper's potential field (eqs. 19-28): K_p {cfg['k_p']:g}, K_v {cfg['k_v']:g}, K_o"
+                f" {cfg['k_o']:g}, rho_o {cfg['rho_o']:g} m, K_s {cfg['k_s']:g}, {limits}")
+    if method == "robust":
+        on = [name for name, key, off in ROBUST_ADDITIONS if cfg[key] != off]
+        off = [name for name, key, off_value in ROBUST_ADDITIONS if cfg[key] == off_value]
+        return (f"the robust potential field: K_p {cfg['k_p']:g}, K_o {cfg['k_o']:g} within repulsion_range"
+                f" {cfg['repulsion_range']:g} m, {limits}; with {', '.join(on) or 'no addition'}"
+                + (f"; off: {', '.join(off)}" if off else ""))
+    if method == "dwa":
+        return (f"the dynamic window (Fox et al. 1997): {cfg['dwa_horizon']:g} s rollouts, weights heading"
+                f" {cfg['dwa_heading_weight']:g}, clearance {cfg['dwa_clearance_weight']:g}, speed"
+                f" {cfg['dwa_speed_weight']:g}, {limits}")
+    return f"velocity obstacles (Fiorini & Shiller 1998): {cfg['vo_horizon']:g} s horizon, {limits}"
+

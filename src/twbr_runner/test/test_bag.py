@@ -53,13 +53,26 @@ def test_typestore_learns_only_what_jazzy_lacks():
 
 def test_metadata_is_what_ros2_bag_info_reads(tmp_path):
     store = typestore_with([], _share)
+    clock, time = store.types["rosgraph_msgs/msg/Clock"], store.types["builtin_interfaces/msg/Time"]
     writer = BagWriter(tmp_path / "bag", store)
     writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    writer.add_topic("/unused", "rosgraph_msgs/msg/Clock")
+    for k in range(3):  # receive times 2.0, 2.5 and 3.0 s
+        writer.write("/clock", 2_000_000_000 + 500_000_000 * k,
+                     store.serialize_cdr(clock(clock=time(sec=k, nanosec=0)), "rosgraph_msgs/msg/Clock"))
     writer.close()
     meta = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    for key in ("version", "storage_identifier", "duration", "starting_time", "message_count",
-                "topics_with_message_count", "relative_file_paths", "files"):
-        assert key in meta
+    # rosbag2's own field names and units (ros2 bag info and ros2 bag play read them: rosbag2_storage's
+    # yaml_serialization.hpp), here filled with what was written
+    assert meta["version"] == 9 and meta["storage_identifier"] == "mcap" and meta["message_count"] == 3
+    assert meta["starting_time"]["nanoseconds_since_epoch"] == 2_000_000_000
+    assert meta["duration"]["nanoseconds"] == 1_000_000_000
+    counts = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    assert counts == {"/clock": 3, "/unused": 0}
+    (relative,) = meta["relative_file_paths"]
+    assert (tmp_path / "bag" / relative).stat().st_size > 0
+    (entry,) = meta["files"]
+    assert entry["path"] == relative and entry["message_count"] == 3
 
 
 def test_a_bag_cut_short_by_a_killed_recorder_is_recovered_whole_up_to_the_cut(tmp_path):

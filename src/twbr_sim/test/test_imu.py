@@ -91,5 +91,16 @@ def test_delay_reports_the_reading_of_earlier_states():
 
 
 def test_raw_mode_is_a_setting_the_reading_keeps_its_rates():
-    assert model(**{"imu.raw": True}).raw
-    assert not model().raw
+    """Raw mode drops only the orientation (sim_node publishes none, REP 145): a pitching, turning robot's
+    body rates and specific force read the same, noise and all."""
+    assert model(**{"imu.raw": True}).raw and not model().raw
+    p = robot_params()
+    s = dyn.initial_state(pitch=0.05)
+    s[dyn.S_THD] = 0.3
+    s[dyn.S_PSID] = -0.2
+    ds = dyn.state_derivative(p, s, 0.05, -0.02)
+    noisy = {"imu.gyro_noise_std": 0.01, "imu.accel_noise_std": 0.05}
+    raw, full = model(4, **noisy, **{"imu.raw": True}).read(p, s, ds), model(4, **noisy).read(p, s, ds)
+    assert list(raw.angular_velocity) == list(full.angular_velocity)
+    assert list(raw.linear_acceleration) == list(full.linear_acceleration)
+    assert abs(raw.angular_velocity[1] - 0.3) < 0.05 and abs(raw.angular_velocity[2] + 0.2) < 0.05

@@ -28,9 +28,9 @@ ENCODER_SPECS: tuple[ParamSpec, ...] = (
 )
 
 SETTINGS_LAYOUT = Layout(("resolution", "window", "period"))
-E_RESOLUTION = SETTINGS_LAYOUT["resolution"]  # [rad per count]; 0: exact
-E_WINDOW = SETTINGS_LAYOUT["window"]  # [publish periods]
-E_PERIOD = SETTINGS_LAYOUT["period"]  # [s]
+EN_RESOLUTION = SETTINGS_LAYOUT["resolution"]  # [rad per count]; 0: exact
+EN_WINDOW = SETTINGS_LAYOUT["window"]  # [publish periods]
+EN_PERIOD = SETTINGS_LAYOUT["period"]  # [s]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 # Output: joint angles [rad] and rates [rad/s], then odometry: pose (x, y [m], yaw [rad]) and twist (v [m/s],
 # yaw rate [rad/s]).
@@ -48,10 +48,10 @@ J_YAW_RATE = OUTPUT_LAYOUT["yaw_rate"]
 N_OUTPUTS = len(OUTPUT_LAYOUT)
 # Memory: samples taken, the dead-reckoned pose, then a ring of the last window+1 counts (left, right).
 MEMORY_LAYOUT = Layout(("samples", "x", "y", "yaw"))
-N_SAMPLES = MEMORY_LAYOUT["samples"]
-N_X = MEMORY_LAYOUT["x"]
-N_Y = MEMORY_LAYOUT["y"]
-N_YAW = MEMORY_LAYOUT["yaw"]
+EM_SAMPLES = MEMORY_LAYOUT["samples"]
+EM_X = MEMORY_LAYOUT["x"]
+EM_Y = MEMORY_LAYOUT["y"]
+EM_YAW = MEMORY_LAYOUT["yaw"]
 N_RING = len(MEMORY_LAYOUT)
 
 
@@ -64,13 +64,13 @@ def settings_vector(settings: dict, publish_rate: float) -> np.ndarray:
 
 
 def new_memory(c: np.ndarray) -> np.ndarray:
-    return np.zeros(N_RING + 2 * (int(c[E_WINDOW]) + 1))
+    return np.zeros(N_RING + 2 * (int(c[EN_WINDOW]) + 1))
 
 
 @kernel
 def encoder_sample(p, c, m, s, out):
     """Joint angles, rates and odometry published with state `s` (one call per published state), into `out`."""
-    resolution = c[E_RESOLUTION]
+    resolution = c[EN_RESOLUTION]
     if resolution == 0.0:
         out[J_ANGLE_LEFT] = s[S_GL]
         out[J_ANGLE_RIGHT] = s[S_GR]
@@ -81,26 +81,26 @@ def encoder_sample(p, c, m, s, out):
         out[J_VELOCITY] = s[S_XD]
         out[J_YAW_RATE] = s[S_PSID]
         return
-    window = int(c[E_WINDOW])
-    n = int(m[N_SAMPLES])
+    window = int(c[EN_WINDOW])
+    n = int(m[EM_SAMPLES])
     size = window + 1
     slot = N_RING + 2 * (n % size)
     count_l = math.floor(s[S_GL] / resolution)
     count_r = math.floor(s[S_GR] / resolution)
     radius = p[P_R]
     if n == 0:  # the driver starts its odometry where the robot stands
-        m[N_X] = s[S_XC]
-        m[N_Y] = s[S_YC]
-        m[N_YAW] = s[S_PSI]
+        m[EM_X] = s[S_XC]
+        m[EM_Y] = s[S_YC]
+        m[EM_YAW] = s[S_PSI]
     else:
         last = N_RING + 2 * ((n - 1) % size)
         d_l = (count_l - m[last]) * resolution * radius
         d_r = (count_r - m[last + 1]) * resolution * radius
         d_yaw = (d_r - d_l) / p[P_D]
-        heading = m[N_YAW] + 0.5 * d_yaw
-        m[N_X] += 0.5 * (d_l + d_r) * math.cos(heading)
-        m[N_Y] += 0.5 * (d_l + d_r) * math.sin(heading)
-        m[N_YAW] += d_yaw
+        heading = m[EM_YAW] + 0.5 * d_yaw
+        m[EM_X] += 0.5 * (d_l + d_r) * math.cos(heading)
+        m[EM_Y] += 0.5 * (d_l + d_r) * math.sin(heading)
+        m[EM_YAW] += d_yaw
     m[slot] = count_l
     m[slot + 1] = count_r
     back = min(n, window)  # the window, once that many samples exist
@@ -108,16 +108,16 @@ def encoder_sample(p, c, m, s, out):
     rate_r = 0.0
     if back > 0:
         old = N_RING + 2 * ((n - back) % size)
-        span = back * c[E_PERIOD]
+        span = back * c[EN_PERIOD]
         rate_l = (count_l - m[old]) * resolution / span
         rate_r = (count_r - m[old + 1]) * resolution / span
-    m[N_SAMPLES] = n + 1
+    m[EM_SAMPLES] = n + 1
     out[J_ANGLE_LEFT] = count_l * resolution
     out[J_ANGLE_RIGHT] = count_r * resolution
     out[J_RATE_LEFT] = rate_l
     out[J_RATE_RIGHT] = rate_r
-    out[J_X] = m[N_X]
-    out[J_Y] = m[N_Y]
-    out[J_YAW] = m[N_YAW]
+    out[J_X] = m[EM_X]
+    out[J_Y] = m[EM_Y]
+    out[J_YAW] = m[EM_YAW]
     out[J_VELOCITY] = 0.5 * radius * (rate_l + rate_r)
     out[J_YAW_RATE] = radius * (rate_r - rate_l) / p[P_D]

@@ -57,18 +57,18 @@ I_DELAY = SETTINGS_LAYOUT["delay_samples"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 # One reading: orientation (roll, pitch, yaw) [rad], angular velocity [rad/s], specific force [m/s^2].
 READING_LAYOUT = Layout(("roll", "pitch", "yaw", ("gyro", 3), ("accel", 3)))
-R_ROLL = READING_LAYOUT["roll"]
-R_PITCH = READING_LAYOUT["pitch"]
-R_YAW = READING_LAYOUT["yaw"]
-R_GYRO = READING_LAYOUT["gyro"]
-R_ACCEL = READING_LAYOUT["accel"]
+RD_ROLL = READING_LAYOUT["roll"]
+RD_PITCH = READING_LAYOUT["pitch"]
+RD_YAW = READING_LAYOUT["yaw"]
+RD_GYRO = READING_LAYOUT["gyro"]
+RD_ACCEL = READING_LAYOUT["accel"]
 N_READING = len(READING_LAYOUT)
 # Memory: the biases now, readings taken so far, then a ring of the last delay+1 ideal readings.
 MEMORY_LAYOUT = Layout((("gyro_bias", 3), ("accel_bias", 3), "samples"))
-M_GYRO_BIAS = MEMORY_LAYOUT["gyro_bias"]
-M_ACCEL_BIAS = MEMORY_LAYOUT["accel_bias"]
-M_SAMPLES = MEMORY_LAYOUT["samples"]
-M_RING = len(MEMORY_LAYOUT)
+IM_GYRO_BIAS = MEMORY_LAYOUT["gyro_bias"]
+IM_ACCEL_BIAS = MEMORY_LAYOUT["accel_bias"]
+IM_SAMPLES = MEMORY_LAYOUT["samples"]
+IM_RING = len(MEMORY_LAYOUT)
 
 
 @dataclass
@@ -81,8 +81,8 @@ class ImuReading:
 
     @classmethod
     def of(cls, r: np.ndarray) -> ImuReading:
-        g, a = R_GYRO, R_ACCEL
-        return cls(float(r[R_ROLL]), float(r[R_PITCH]), float(r[R_YAW]),
+        g, a = RD_GYRO, RD_ACCEL
+        return cls(float(r[RD_ROLL]), float(r[RD_PITCH]), float(r[RD_YAW]),
                    (float(r[g]), float(r[g + 1]), float(r[g + 2])), (float(r[a]), float(r[a + 1]), float(r[a + 2])))
 
 
@@ -99,7 +99,7 @@ def settings_vector(settings: dict, publish_rate: float) -> np.ndarray:
 
 
 def new_memory(c: np.ndarray) -> np.ndarray:
-    return np.zeros(M_RING + (int(c[I_DELAY]) + 1) * N_READING)
+    return np.zeros(IM_RING + (int(c[I_DELAY]) + 1) * N_READING)
 
 
 @kernel
@@ -109,28 +109,28 @@ def ideal_imu(p, s, ds, out):
     sn = math.sin(pitch)
     cs = math.cos(pitch)
     yaw_rate = s[S_PSID]
-    out[R_ROLL] = 0.0
-    out[R_PITCH] = pitch
-    out[R_YAW] = s[S_PSI]
+    out[RD_ROLL] = 0.0
+    out[RD_PITCH] = pitch
+    out[RD_YAW] = s[S_PSI]
     # Body rates: the yaw rate is about world z, which in the pitched body frame is (-sin, 0, cos).
-    out[R_GYRO] = -sn * yaw_rate
-    out[R_GYRO + 1] = s[S_THD]
-    out[R_GYRO + 2] = cs * yaw_rate
+    out[RD_GYRO] = -sn * yaw_rate
+    out[RD_GYRO + 1] = s[S_THD]
+    out[RD_GYRO + 2] = cs * yaw_rate
     # Specific force of the axle centre in the heading frame: forward accel, centripetal, +g; then rotated
     # into the pitched body frame.
     g = p[P_G]
     a_fwd = ds[S_XD]
-    out[R_ACCEL] = cs * a_fwd - sn * g
-    out[R_ACCEL + 1] = s[S_XD] * yaw_rate
-    out[R_ACCEL + 2] = sn * a_fwd + cs * g
+    out[RD_ACCEL] = cs * a_fwd - sn * g
+    out[RD_ACCEL + 1] = s[S_XD] * yaw_rate
+    out[RD_ACCEL + 2] = sn * a_fwd + cs * g
 
 
 @kernel
 def imu_init(c, m, g):
     """The start-up biases (drawn only where their std is set, so an ideal IMU draws nothing)."""
     for i in range(3):
-        m[M_GYRO_BIAS + i] = c[I_GYRO_BIAS_STD] * normal(g) if c[I_GYRO_BIAS_STD] > 0.0 else 0.0
-        m[M_ACCEL_BIAS + i] = c[I_ACCEL_BIAS_STD] * normal(g) if c[I_ACCEL_BIAS_STD] > 0.0 else 0.0
+        m[IM_GYRO_BIAS + i] = c[I_GYRO_BIAS_STD] * normal(g) if c[I_GYRO_BIAS_STD] > 0.0 else 0.0
+        m[IM_ACCEL_BIAS + i] = c[I_ACCEL_BIAS_STD] * normal(g) if c[I_ACCEL_BIAS_STD] > 0.0 else 0.0
 
 
 @kernel
@@ -158,30 +158,30 @@ def imu_sample_of(c, m, g, ideal, out):
 
 @kernel
 def _ring_slot(c, m):
-    return M_RING + (int(m[M_SAMPLES]) % (int(c[I_DELAY]) + 1)) * N_READING
+    return IM_RING + (int(m[IM_SAMPLES]) % (int(c[I_DELAY]) + 1)) * N_READING
 
 
 @kernel
 def _report(c, m, g, out):
     """The reading due now from the ring (the delay), with bias, its walk and noise; counts the sample."""
     delay = int(c[I_DELAY])
-    n = int(m[M_SAMPLES])
+    n = int(m[IM_SAMPLES])
     # Before `delay` readings exist, the part reports its first one.
-    old = M_RING + ((n - delay) % (delay + 1) if n >= delay else 0) * N_READING
+    old = IM_RING + ((n - delay) % (delay + 1) if n >= delay else 0) * N_READING
     out[:] = m[old:old + N_READING]
-    m[M_SAMPLES] = n + 1
+    m[IM_SAMPLES] = n + 1
     step = math.sqrt(c[I_PERIOD])
     for i in range(3):
         if c[I_GYRO_WALK] > 0.0:
-            m[M_GYRO_BIAS + i] += c[I_GYRO_WALK] * step * normal(g)
+            m[IM_GYRO_BIAS + i] += c[I_GYRO_WALK] * step * normal(g)
         if c[I_ACCEL_WALK] > 0.0:
-            m[M_ACCEL_BIAS + i] += c[I_ACCEL_WALK] * step * normal(g)
-        out[R_GYRO + i] += m[M_GYRO_BIAS + i]
-        out[R_ACCEL + i] += m[M_ACCEL_BIAS + i]
-    out[R_PITCH] += c[I_PITCH_BIAS]
-    _add_noise(out, R_GYRO, 3, c[I_GYRO_NOISE], g)
-    _add_noise(out, R_ACCEL, 3, c[I_ACCEL_NOISE], g)
-    _add_noise(out, R_ROLL, 3, c[I_ORIENTATION_NOISE], g)
+            m[IM_ACCEL_BIAS + i] += c[I_ACCEL_WALK] * step * normal(g)
+        out[RD_GYRO + i] += m[IM_GYRO_BIAS + i]
+        out[RD_ACCEL + i] += m[IM_ACCEL_BIAS + i]
+    out[RD_PITCH] += c[I_PITCH_BIAS]
+    _add_noise(out, RD_GYRO, 3, c[I_GYRO_NOISE], g)
+    _add_noise(out, RD_ACCEL, 3, c[I_ACCEL_NOISE], g)
+    _add_noise(out, RD_ROLL, 3, c[I_ORIENTATION_NOISE], g)
 
 
 class ImuModel:

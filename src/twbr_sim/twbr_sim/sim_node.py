@@ -45,7 +45,7 @@ from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
 from twbr_sim.stepping import LockstepExchange, Publications, RealtimeTicks, TimeoutAction
-from twbr_sim.traction import T_DEMAND_LEFT, T_DEMAND_RIGHT, T_NORMAL_LEFT, T_NORMAL_RIGHT
+from twbr_sim.traction import TF_DEMAND_LEFT, TF_DEMAND_RIGHT, TF_NORMAL_LEFT, TF_NORMAL_RIGHT
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers, world_status_message
 
 WHEEL_JOINTS = ["left_wheel_joint", "right_wheel_joint"]
@@ -323,9 +323,9 @@ class SimNode(Node):
         msg.lockstep_timeouts = sim.lockstep_timeouts
         msg.steps = sim.step_count
         loads, tally = sim.sense().loads, sim.traction
-        msg.normal_force_left, msg.normal_force_right = float(loads[T_NORMAL_LEFT]), float(loads[T_NORMAL_RIGHT])
-        msg.friction_demand_left = float(loads[T_DEMAND_LEFT])
-        msg.friction_demand_right = float(loads[T_DEMAND_RIGHT])
+        msg.normal_force_left, msg.normal_force_right = float(loads[TF_NORMAL_LEFT]), float(loads[TF_NORMAL_RIGHT])
+        msg.friction_demand_left = float(loads[TF_DEMAND_LEFT])
+        msg.friction_demand_right = float(loads[TF_DEMAND_RIGHT])
         msg.wheel_lifted, msg.wheel_slipping = tally.lifted, tally.slipping
         msg.lift_events, msg.slip_events = tally.lift_events, tally.slip_events
         msg.lifted_time = tally.lifted_samples / self.cfg["publish_rate"]

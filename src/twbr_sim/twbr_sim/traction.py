@@ -31,10 +31,10 @@ TRACTION_SPECS: tuple[ParamSpec, ...] = (
 )
 
 OUTPUT_LAYOUT = Layout(("normal_left", "normal_right", "demand_left", "demand_right"))
-T_NORMAL_LEFT = OUTPUT_LAYOUT["normal_left"]  # [N]
-T_NORMAL_RIGHT = OUTPUT_LAYOUT["normal_right"]
-T_DEMAND_LEFT = OUTPUT_LAYOUT["demand_left"]  # horizontal ground force the wheel needs [N]
-T_DEMAND_RIGHT = OUTPUT_LAYOUT["demand_right"]
+TF_NORMAL_LEFT = OUTPUT_LAYOUT["normal_left"]  # [N]
+TF_NORMAL_RIGHT = OUTPUT_LAYOUT["normal_right"]
+TF_DEMAND_LEFT = OUTPUT_LAYOUT["demand_left"]  # horizontal ground force the wheel needs [N]
+TF_DEMAND_RIGHT = OUTPUT_LAYOUT["demand_right"]
 N_OUTPUTS = len(OUTPUT_LAYOUT)
 
 
@@ -78,10 +78,10 @@ def lane_wheel_loads(p, i, s, ds, out):
         share_l = min(max(normal_l / total, 0.0), 1.0)
     lateral_l = share_l * lateral
     lateral_r = (1.0 - share_l) * lateral
-    out[T_NORMAL_LEFT, i] = normal_l
-    out[T_NORMAL_RIGHT, i] = normal_r
-    out[T_DEMAND_LEFT, i] = math.sqrt(f_l * f_l + lateral_l * lateral_l)
-    out[T_DEMAND_RIGHT, i] = math.sqrt(f_r * f_r + lateral_r * lateral_r)
+    out[TF_NORMAL_LEFT, i] = normal_l
+    out[TF_NORMAL_RIGHT, i] = normal_r
+    out[TF_DEMAND_LEFT, i] = math.sqrt(f_l * f_l + lateral_l * lateral_l)
+    out[TF_DEMAND_RIGHT, i] = math.sqrt(f_r * f_r + lateral_r * lateral_r)
 
 
 @inline_kernel
@@ -93,7 +93,7 @@ def wheel_loads(p, s, ds, out):
 @kernel
 def traction_flags(out, friction):
     """(a wheel lifted, a wheel slipping) from wheel_loads' output: lifted means normal force <= 0."""
-    lifted = out[T_NORMAL_LEFT] <= 0.0 or out[T_NORMAL_RIGHT] <= 0.0
-    slipping = (out[T_DEMAND_LEFT] > friction * max(out[T_NORMAL_LEFT], 0.0)
-                or out[T_DEMAND_RIGHT] > friction * max(out[T_NORMAL_RIGHT], 0.0))
+    lifted = out[TF_NORMAL_LEFT] <= 0.0 or out[TF_NORMAL_RIGHT] <= 0.0
+    slipping = (out[TF_DEMAND_LEFT] > friction * max(out[TF_NORMAL_LEFT], 0.0)
+                or out[TF_DEMAND_RIGHT] > friction * max(out[TF_NORMAL_RIGHT], 0.0))
     return lifted, slipping
