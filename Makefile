@@ -49,6 +49,10 @@ bench: setup
 	@$(RUN) python benchmarks/bench_torque.py
 	@$(RUN) python benchmarks/bench_viewer.py --json $(BENCH_OUT)/viewer.json
 	@$(RUN) python benchmarks/bench_metrics.py --json $(BENCH_OUT)/metrics.json
+	@$(RUN) python benchmarks/bench_startup.py --json $(BENCH_OUT)/startup.json
+	@$(RUN) python benchmarks/bench_planner.py --json $(BENCH_OUT)/planner.json
+	@$(RUN) python benchmarks/compare_engines.py --json $(BENCH_OUT)/engines.json
+	@$(RUN) python benchmarks/study_paper_runs.py --json $(BENCH_OUT)/paper_runs.json
 
 # Issue 17's robustness table (pid and lqr, ideal and realistic sensors, nominal / ±20 / ±40 % robots)
 ROBUST_N ?= 1000

@@ -40,3 +40,21 @@ def test_relative_links_lead_to_files():
             if "://" in target:
                 continue
             assert (doc.parent / target).exists(), f"{doc.relative_to(ROOT)} links to missing {target}"
+
+
+def test_the_paper_runs_the_docs_show_are_the_measured_ones():
+    """README.md's and docs/scenarios.md's table of the paper's three runs cites benchmarks/results/
+    paper_runs.json (benchmarks/study_paper_runs.py); a row that the file does not back fails here."""
+    import json
+
+    results = json.loads((ROOT / "benchmarks" / "results" / "paper_runs.json").read_text())
+    row = re.compile(r"^\| `(static|dynamic_target|dynamic_obstacles)`[^|]*\| ([0-9.]+) s \| ([0-9.]+) m \| "
+                     r"±([0-9.]+) rad \|$", re.M)
+    for doc in (ROOT / "README.md", ROOT / "docs" / "scenarios.md"):
+        rows = row.findall(doc.read_text())
+        assert len(rows) == 3, doc.name
+        for name, reached, clearance, pitch in rows:
+            measured = results["scenarios"][name]
+            assert float(reached) == round(measured["reached_at_s"], 1), (doc.name, name, "reached at")
+            assert float(clearance) == round(measured["min_clearance_m"], 2), (doc.name, name, "clearance")
+            assert float(pitch) == round(measured["pitch_abs_max_rad"], 4), (doc.name, name, "pitch")
