@@ -131,6 +131,7 @@ def _runs(odoms: list[tuple[float, float, float]]) -> list[dict[float, tuple[flo
     return runs
 
 
+@pytest.mark.long  # ~40 s: make test-long; a restart is in make test by test_simulator_killed_and_started_again
 def test_by_hand_graph_restarted_never_waits_and_repeats_its_path(launch, ros):
     """README's by-hand graph: controller and planner by hand, then a lockstep sim_node with
     lockstep_planner_rate and no wait_for_subscribers, three times over (at once, ~1 s and ~6 s after the
