@@ -7,14 +7,18 @@ test fails.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 
+from twbr_common.ros_io import stamp_seconds
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,16 +32,9 @@ def ros_domain() -> int:
     return 120 + (os.getpid() * 7 + next(_domains)) % 100
 
 
-@pytest.fixture(scope="session", autouse=True)
-def busy_loop() -> Iterator[int]:
-    """TWBR_TEST_BUSY=1 (`make e2e-loaded`): one busy loop per core beside the whole session, as on a loaded CI
-    host. The end-to-end tests must pass that way: they judge in sim time and stamps, never in wall time."""
-    if os.environ.get("TWBR_TEST_BUSY", "0") in ("", "0"):
-        yield 0
-        return
-    import subprocess
-    import sys
-
+@contextlib.contextmanager
+def busy_loops() -> Iterator[int]:
+    """One busy loop per core while inside (a loaded host); they are killed on the way out, whatever happens."""
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
     try:
         yield len(hogs)
@@ -45,6 +42,17 @@ def busy_loop() -> Iterator[int]:
         for hog in hogs:
             hog.kill()
             hog.wait()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def busy_loop() -> Iterator[int]:
+    """TWBR_TEST_BUSY=1 (`make e2e-loaded`): busy loops beside the whole session, as on a loaded CI host. The
+    end-to-end tests must pass that way: they judge in sim time and stamps, never in wall time."""
+    if os.environ.get("TWBR_TEST_BUSY", "0") in ("", "0"):
+        yield 0
+        return
+    with busy_loops() as n:
+        yield n
 
 
 @pytest.fixture
@@ -56,9 +64,6 @@ def ros_env(ros_domain: int) -> dict[str, str]:
 def node_kernels() -> None:
     """The compiled nodes' kernels in the cache before the first node starts: planner_node compiles by
     default, and its first start after a source change would spend ~25 s compiling inside a test's timeouts."""
-    import subprocess
-    import sys
-
     warm = ("from twbr_planner.planner import ApfPlanner; from twbr_planner.planner_params import resolve;"
             " ApfPlanner(resolve({})).warm_up()")
     subprocess.run([sys.executable, "-c", warm], check=True, timeout=600)
@@ -144,7 +149,6 @@ def small_disk(tmp_path: Path) -> Iterator[Callable[[int], Path]]:
     """A filesystem of a few MB (a tmpfs mounted for the test, unmounted after), to fill to the last byte.
     Mounting needs root (CI and the set-up run as root here); elsewhere the test says why it skips."""
     import shutil
-    import subprocess
 
     mounted: list[Path] = []
 
@@ -167,7 +171,7 @@ def small_disk(tmp_path: Path) -> Iterator[Callable[[int], Path]]:
 
 def stamp_s(msg) -> float:
     """A message's header stamp in seconds."""
-    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+    return stamp_seconds(msg.header.stamp)
 
 
 def contacts_while_driving(world: list, states: list, speed: float = 0.05) -> list[str]:

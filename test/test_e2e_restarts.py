@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import after_last_restart, contacts_while_driving
+from conftest import after_last_restart, busy_loops, contacts_while_driving
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -88,13 +88,8 @@ def test_the_same_run_on_an_idle_and_on_a_loaded_machine_gives_the_same_path(tmp
     # Before: under load the world reached the planner after the odom of its instant (world_timeout: the
     # robot stopped without a ramp), and cmd_vel took effect at whichever state it happened to beat.
     idle = _run(tmp_path / "idle", ros_env)
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
-    try:
+    with busy_loops():
         loaded = _run(tmp_path / "loaded", ros_env)
-    finally:
-        for hog in hogs:
-            hog.kill()
-            hog.wait()
     series = [series_from_messages(read_messages(r / "bag", ["/odom", "/clock"])) for r in (idle, loaded)]
     a, b = series
     common, ia, ib = np.intersect1d(a.odom_t, b.odom_t, return_indices=True)

@@ -75,11 +75,9 @@ def escape(a, m, stamp, x, y, distance, moving_target, target_x, target_y, gx, g
         else:  # the A* runs only while the escape goes on
             escape_x, escape_y, found = navigation_direction(x, y, target_x, target_y, positions, radii, moving,
                                                              robot_radius + a[A_FREE_MARGIN])
-            if found:
-                pass
-            elif near_boundary == math.inf:
+            if not found and near_boundary == math.inf:
                 m[R_FOLLOWING] = 0.0  # no way and lost the boundary: back to the field
-            elif stamp - m[R_FOLLOW_SINCE] > a[A_FOLLOW_FLIP_TIME]:
+            elif not found and stamp - m[R_FOLLOW_SINCE] > a[A_FOLLOW_FLIP_TIME]:
                 m[R_FOLLOW_SIDE] = -m[R_FOLLOW_SIDE]
                 m[R_FOLLOW_SINCE] = stamp
                 m[R_HIT_DISTANCE] = distance

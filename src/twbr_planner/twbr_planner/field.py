@@ -96,7 +96,7 @@ def field(a, m, x, y, yaw, vx, vy, target_x, target_y, target_vx, target_vy, dis
     look = min(distance, a[A_WAY_LOOK])
     way_x = gx
     way_y = gy
-    way_free = blocked_at >= distance or blocked_at >= look
+    way_free = blocked_at >= look  # free to the target, or far enough (look <= distance)
     if not way_free:
         way_x, way_y, way_free = way_round(a, m, x, y, gx, gy, look, positions, radii, moving)
     if way_free:

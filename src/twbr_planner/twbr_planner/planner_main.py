@@ -8,8 +8,8 @@ change of the sources compiles them (~25 s on 2 cores) and says so.
 
 from __future__ import annotations
 
-import importlib
+from twbr_planner.planner_node import main as node_main
 
 
 def main(args: list[str] | None = None) -> int:
-    return importlib.import_module("twbr_planner.planner_node").main(args)
+    return node_main(args)

@@ -205,8 +205,9 @@ def describe(cfg: Mapping[str, Any]) -> str:
         return (f"the paper's potential field (eqs. 19-28): K_p {cfg['k_p']:g}, K_v {cfg['k_v']:g}, K_o"
                 f" {cfg['k_o']:g}, rho_o {cfg['rho_o']:g} m, K_s {cfg['k_s']:g}, {limits}")
     if method == "robust":
-        on = [name for name, key, off in ROBUST_ADDITIONS if cfg[key] != off]
-        off = [name for name, key, off_value in ROBUST_ADDITIONS if cfg[key] == off_value]
+        on, off = [], []
+        for name, key, off_value in ROBUST_ADDITIONS:
+            (off if cfg[key] == off_value else on).append(name)
         return (f"the robust potential field: K_p {cfg['k_p']:g}, K_o {cfg['k_o']:g} within repulsion_range"
                 f" {cfg['repulsion_range']:g} m, {limits}; with {', '.join(on) or 'no addition'}"
                 + (f"; off: {', '.join(off)}" if off else ""))
