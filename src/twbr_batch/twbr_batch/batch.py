@@ -540,7 +540,7 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     n_running = n
     while n_running > 0:
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
-            _samples(running, 0, n_running, ended, params, states, c, a, run, segments, agents,
+            _samples(running, np.int64(0), n_running, ended, params, states, c, a, run, segments, agents,
                      waypoints, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
                      encoder_m, estimator_q, torque_limits, memories)
         else:

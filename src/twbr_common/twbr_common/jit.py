@@ -15,7 +15,10 @@ assumes away NaN or inf, so the guards' and the fall checks' comparisons keep th
 numba invalidates a cached kernel when its own file changes, not when a kernel it calls (and inlined)
 changes in another file: the batch engine would keep running yesterday's controller. So the cache lives
 in a directory named by a digest of every twbr package's source, under ~/.cache/twbr/numba (or
-$XDG_CACHE_HOME/twbr/numba); NUMBA_CACHE_DIR, when set, wins.
+$XDG_CACHE_HOME/twbr/numba); NUMBA_CACHE_DIR, when set, wins. Inside it a kernel is filed by its package
+and module, not by the path it was imported from (`PackageCacheLocator`): the kernels compiled at set-up
+from src/ (tools/warm_kernels.py) are the ones the installed packages load, and a `make clean` or a
+second checkout of the same sources finds them too.
 
 TWBR_JIT=off runs the same kernels as plain Python and never imports numba (whose LLVM is ~60 MiB and
 ~0.3 s of every process that loads it). The deployable nodes default to it (`twbr_common.deploy`):
@@ -90,9 +93,28 @@ COMPILED = jit_mode() == "on"
 
 if COMPILED:
     import numba
+    from numba.core.caching import UserProvidedCacheLocator
+
+    class PackageCacheLocator(UserProvidedCacheLocator):
+        """Files a twbr kernel under <cache dir>/<package>, whichever copy of the package it came from;
+        numba's own locator files it under a digest of the source file's absolute path. The entry is
+        still checked against a hash of the source file's content (numba's source stamp)."""
+
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self._cache_path = os.path.join(numba.config.CACHE_DIR, py_func.__module__.split(".")[0])
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not py_func.__module__.startswith("twbr_"):
+                return None
+            return super().from_function(py_func, py_file)
 
     if not os.environ.get("NUMBA_CACHE_DIR"):
         numba.config.CACHE_DIR = str(cache_dir())
+    if not numba.config.CACHE_LOCATOR_CLASSES:
+        numba.config.CACHE_LOCATOR_CLASSES = (f"{__name__}.PackageCacheLocator,UserProvidedCacheLocator,"
+                                              "InTreeCacheLocator,UserWideCacheLocator")
     kernel = numba.njit(cache=True, fastmath=FASTMATH, nogil=True)
     # The equations of one lane, for loops over the robots of a lane group. Inlined into the caller's IR: a
     # call between compiled functions passes arrays with reference counting, which keeps the loop from being
