@@ -12,6 +12,32 @@ underlay="$TWBR_UNDERLAY"
 PY="${PYTHON:-python3}"
 want="$( (cat requirements.txt; echo "$underlay"; "$PY" --version) | sha256sum | cut -c1-16)"
 stamp=.venv/.twbr-installed
+mkdir -p log
+
+# The compiled kernels (twbr_batch.warm: ~110 s for the batch engine's, ~60 s for the nodes', one core
+# each) are built beside the rest of the set-up, from src/ as soon as numba is installed, into the cache
+# the installed packages load from (twbr_common.jit); set-up waits for them at its end. Only when a
+# source changed (or the venv is new), never with TWBR_JIT=off or TWBR_WARM=0.
+warm_pid=""
+start_warm() {
+  [ -n "$warm_pid" ] && return 0
+  [ "${TWBR_JIT:-on}" = off ] || [ "${TWBR_WARM:-1}" = 0 ] && return 0
+  local path
+  path="$(find "$ROOT/src" -mindepth 1 -maxdepth 1 -type d -name 'twbr_*' | LC_ALL=C sort | paste -sd:)"
+  PYTHONPATH="$path${PYTHONPATH:+:$PYTHONPATH}" TWBR_CONFIG_DIR="$ROOT/config" \
+    .venv/bin/python -m twbr_batch.warm > log/twbr-warm.txt 2>&1 &
+  warm_pid=$!
+}
+finish_warm() {
+  [ -z "$warm_pid" ] && return 0
+  if wait "$warm_pid"; then
+    tail -n 1 log/twbr-warm.txt
+  else
+    echo "bootstrap: compiling the kernels failed (the first run compiles them instead): log/twbr-warm.txt" >&2
+  fi
+  warm_pid=""
+}
+trap finish_warm EXIT
 
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "bootstrap: creating .venv ($underlay ROS 2 underlay)"
@@ -34,6 +60,10 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     return "${PIPESTATUS[0]}"
   }
   pip_install --upgrade "pip==26.3"
+  kernel_reqs="$(mktemp)"  # what compiling the kernels needs, first: they compile while the rest installs
+  grep -i -E '^(numpy|numba|llvmlite|pyyaml|scipy)==' "$reqs" > "$kernel_reqs" || true
+  pip_install -r "$kernel_reqs"
+  start_warm
   pip_install -r "$reqs"
   if [ "$underlay" = pip ]; then
     .venv/bin/python tools/fix_wheel_paths.py .venv
@@ -59,7 +89,6 @@ if [ "${#apt_wanted[@]}" -gt 0 ]; then
 fi
 
 . tools/env.sh
-mkdir -p log
 # colcon build only when what it builds changed since the last successful build: a file under src/ or
 # config/ newer than the stamp, a file added, removed or renamed, another underlay. With --symlink-install
 # the Python modules and config files are links into the checkout, so a make target whose sources did not
@@ -71,6 +100,7 @@ if [ -f "$built" ] && [ -d install ] && [ "$(cat "$built")" = "$sources" ] \
   exit 0
 fi
 rm -f "$built"
+start_warm
 skip=()
 if [ "$underlay" = system ] && [ -d "/opt/ros/jazzy/share/tf2_msgs" ]; then
   skip=(--packages-skip tf2_msgs)   # the platform has tf2_msgs: never shadow it
@@ -80,3 +110,4 @@ colcon build --symlink-install --base-paths src config "${skip[@]}" \
   || { cat log/twbr-build.txt; echo "bootstrap: colcon build failed" >&2; exit 1; }
 tail -n 3 log/twbr-build.txt
 echo "$sources" > "$built"
+finish_warm

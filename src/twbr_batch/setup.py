@@ -20,6 +20,7 @@ setup(
         "console_scripts": [
             "montecarlo = twbr_batch.montecarlo:main",
             "suite = twbr_batch.suite:main",
+            "warm = twbr_batch.warm:main",
         ],
     },
 )

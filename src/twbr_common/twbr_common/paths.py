@@ -8,12 +8,13 @@ from pathlib import Path
 
 
 def installed_config_dir() -> Path | None:
-    """share/twbr_config/config of the sourced workspace, or None where twbr_config is not installed."""
+    """share/twbr_config/config of the sourced workspace, or None where twbr_config is not installed or no
+    workspace is sourced (ament_index raises OSError without AMENT_PREFIX_PATH)."""
     try:
         from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
     except ImportError:
         return None
-    with contextlib.suppress(PackageNotFoundError):
+    with contextlib.suppress(PackageNotFoundError, OSError):
         return Path(get_package_share_directory("twbr_config")) / "config"
     return None
 
