@@ -8,8 +8,9 @@ RUN := tools/run.sh
 .PHONY: all setup test test-long unit e2e e2e-loaded demo montecarlo suite bench robustness lint clean
 all: setup
 
+# `make setup` (or plain `make`) also compiles the kernels when a source changed (tools/bootstrap.sh)
 setup:
-	@bash tools/bootstrap.sh
+	@TWBR_WARM=$(if $(filter-out setup all,$(or $(MAKECMDGOALS),all)),$(TWBR_WARM),$(or $(TWBR_WARM),1)) bash tools/bootstrap.sh
 
 test: setup
 	@$(RUN) python -m pytest -q -m "not long"
@@ -53,6 +54,7 @@ bench: setup
 	@$(RUN) python benchmarks/bench_planner.py --json $(BENCH_OUT)/planner.json
 	@$(RUN) python benchmarks/compare_engines.py --json $(BENCH_OUT)/engines.json
 	@$(RUN) python benchmarks/study_paper_runs.py --json $(BENCH_OUT)/paper_runs.json
+	@$(RUN) python benchmarks/bench_first_run.py --json $(BENCH_OUT)/first_run.json
 
 # Issue 17's robustness table (pid and lqr, ideal and realistic sensors, nominal / ±20 / ±40 % robots)
 ROBUST_N ?= 1000

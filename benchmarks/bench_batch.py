@@ -13,7 +13,6 @@ in under 3 s, on 2 cores.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import resource
 import sys
@@ -21,6 +20,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from results_file import write_results
 
 from twbr_batch import montecarlo as mc
 from twbr_batch.batch import run_batch
@@ -100,7 +100,7 @@ def main() -> int:
           f" {args.study_runs} runs < {TARGET_STUDY_S:g} s: {'met' if result['study_wall_s'] < TARGET_STUDY_S else 'NOT met'}"
           f" ({os.cpu_count()} cores)")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_results(args.json, result)
     return 0
 
 

@@ -10,12 +10,13 @@ percentile). Prints the median over runs.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
 import tempfile
 from pathlib import Path
+
+from results_file import write_results
 
 from twbr_runner.runner import RunOptions, run
 from twbr_sim.run_report import parse_run_report
@@ -48,7 +49,7 @@ def main() -> int:
           f" {result['exchanges_per_s']:.1f} exchanges/s; control latency median {result['latency_median_ms']:.3f} ms,"
           f" p99 {result['latency_p99_ms']:.3f} ms ({os.cpu_count()} cores)")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_results(args.json, result)
     return 0
 
 

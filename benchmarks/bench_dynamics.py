@@ -7,12 +7,12 @@ path: command admission, fall check, world). The issue's target is 50,000 single
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
 
 import numpy as np
+from results_file import write_results
 
 from twbr_common.params import defaults
 from twbr_sim import dynamics as dyn
@@ -67,8 +67,7 @@ def main() -> int:
     ok = results["dynamics_steps_per_s_python_called"] >= target
     print(f"target >= {target:,} single-robot steps/s (python-called RK4 step): {'met' if ok else 'NOT met'}")
     if len(sys.argv) > 1:
-        with open(sys.argv[1], "w") as f:
-            json.dump(results, f, indent=2)
+        write_results(sys.argv[1], results)
     return 0
 
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import itertools
-import json
 import os
 import statistics
 import sys
@@ -31,6 +30,7 @@ import time
 from pathlib import Path
 
 import psutil
+from results_file import write_results
 
 from twbr_common.params import default_of
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
@@ -165,7 +165,7 @@ def main() -> int:
           f" latency p99 < {TARGET_P99_MS:g} ms: lockstep {'met' if p99['lockstep_controller'] < TARGET_P99_MS else 'NOT met'},"
           f" realtime {'met' if p99['realtime_controller'] < TARGET_P99_MS else 'NOT met'}")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_results(args.json, result)
     return 0
 
 

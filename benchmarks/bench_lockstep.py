@@ -8,13 +8,14 @@ median over runs of exchanges per second and the real-time factor.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from results_file import write_results
 
 from twbr_runner.spawn import loopback_env, start_node
 from twbr_sim.run_report import parse_run_report
@@ -68,7 +69,7 @@ def main() -> int:
     print(f"lockstep vs torque echo: median {result['lockstep_exchanges_per_s_median']:.1f} exchanges/s,"
           f" real-time factor {result['lockstep_real_time_factor_median']:.2f} ({os.cpu_count()} cores)")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2))
+        write_results(args.json, result)
     return 0
 
 

@@ -18,10 +18,10 @@ import resource
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+from results_file import write_results
 
 from twbr_runner.bag_writer import BagWriter, qos_profile
 from twbr_runner.spawn import loopback_env
@@ -125,9 +125,8 @@ def main() -> int:
                   f" ({size / got['seconds']:6.1f} MB/s), peak {got['peak_mb']:6.0f} MB,"
                   f" {got['obstacle_snapshots']} obstacle snapshots, reached {got['reached']}", flush=True)
     if a.json:
-        a.json.write_text(json.dumps({"date": time.strftime("%Y-%m-%d"), "obstacles": a.obstacles, "rate_hz": a.rate,
-                                      "maxrss_unit": "MB", "rows": rows, "python_rusage": resource.RUSAGE_SELF},
-                                     indent=1) + "\n")
+        write_results(a.json, {"obstacles": a.obstacles, "rate_hz": a.rate, "maxrss_unit": "MB", "rows": rows,
+                               "python_rusage": resource.RUSAGE_SELF})
     return 0
 
 

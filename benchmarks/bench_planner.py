@@ -9,12 +9,11 @@ conversion of its messages, measured separately by bench_graph's navigation grap
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from results_file import write_results
 
 from twbr_batch.closed_loop import planner_reference, run_closed_loop
 from twbr_planner.planner import ApfPlanner
@@ -68,7 +67,7 @@ def main() -> int:
     print(f"target: robust planning step p99 < {1e3 * TARGET_P99_S:g} ms: {'met' if worst < TARGET_P99_S else 'NOT met'}"
           f" (worst p99 {1e3 * worst:.3f} ms)")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_results(args.json, result)
     return 0
 
 

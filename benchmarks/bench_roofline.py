@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+from results_file import write_results
 
 HERE = Path(__file__).parent
 FLOPS_PER_CYCLE = 16  # two 256-bit FMA pipes: 2 x 4 doubles x 2 flops (x86-64 with AVX2 and FMA)
@@ -218,7 +219,7 @@ def main() -> int:
           f" {trig_ns:.0f} ns ({100 * trig_ns / loop_ns:.0f} %); SVML {'on' if result['svml'] else 'off'}"
           f" (numba {numba.__version__})")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_results(args.json, result)
     return 0
 
 

@@ -11,7 +11,6 @@ checked, publishers, subscriptions and services created. Resident memory is read
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import subprocess
 import sys
@@ -19,6 +18,7 @@ import time
 from pathlib import Path
 
 import psutil
+from results_file import write_results
 
 from twbr_runner.runner import params_files
 from twbr_runner.spawn import loopback_env, node_executable
@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
           f" <= {TARGET_MIB:g} MiB: {'met' if all(f['rss_mib'] <= TARGET_MIB for f in deployed) else 'NOT met'}")
     if a.json:
         a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps(figures, indent=1) + "\n")
+        write_results(a.json, figures)
     return 0
 
 

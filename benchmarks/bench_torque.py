@@ -16,11 +16,10 @@ included, paper's method as the scenario pins): exactly reproducible.
 
 from __future__ import annotations
 
-import json
 import sys
-from pathlib import Path
 
 import numpy as np
+from results_file import RESULTS, write_results
 
 from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
 from twbr_batch.response import step_response
@@ -86,8 +85,7 @@ def main() -> int:
               f"{r['left_power_above_10hz']:12.3e}/{r['right_power_above_10hz']:.3e}"
               f" {r['left_line_20hz_nm']:13.4f}/{r['right_line_20hz_nm']:.4f} {r['step_rollback_pct']:17.1f}"
               f" {r['step_settle_s']:9.3f} {r['step_overshoot_pct']:12.2f} {r['sim_time_s']:6.2f}")
-    out = Path(__file__).parent / "results" / "bench_torque.json"
-    out.write_text(json.dumps(rows, indent=2) + "\n")
+    write_results(RESULTS / "bench_torque.json", {"rows": rows})
     return 0
 
 

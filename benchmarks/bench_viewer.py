@@ -14,7 +14,6 @@ messages (the bag's are decoded by mcap's reader), ~0.05 ms per message.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 import tempfile
@@ -22,6 +21,7 @@ import time
 from pathlib import Path
 
 import psutil
+from results_file import write_results
 
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.spawn import loopback_env
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
           f" {100 * figures['core_share_at_draw_rate']:.1f} % of one core")
     if a.json:
         a.json.parent.mkdir(parents=True, exist_ok=True)
-        a.json.write_text(json.dumps(figures, indent=1) + "\n")
+        write_results(a.json, figures)
     return 0
 
 

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from results_file import write_results
 
 from twbr_batch.closed_loop import run_closed_loop
 from twbr_mujoco.physics import mujoco_simulator
@@ -131,7 +132,7 @@ def main() -> int:
                   f" ({r['slipping_time_s']:.3f} s) | {r['max_abs_pitch_rad']:.3f} | {r['final_speed_m_s']:.3f} |"
                   f" {r['fallen']} | {r['real_time_factor']:.1f} |")
     if a.json:
-        a.json.write_text(json.dumps(results, indent=1, default=str))
+        write_results(a.json, json.loads(json.dumps(results, default=str)))
     return 0
 
 

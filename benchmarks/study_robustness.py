@@ -19,13 +19,13 @@ controller does not know. Prints a Markdown table and writes benchmarks/results/
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from results_file import write_results
 
 from twbr_batch import montecarlo as mc
 from twbr_batch.batch import Z_COLLISIONS, Z_FALLEN, Z_LIFT_EVENTS, Z_REACHED_AT, Z_SLIP_EVENTS, run_batch
@@ -100,8 +100,7 @@ def main() -> int:
                       f" {settle} | {rollback} | {nav['success_pct']:.1f} % | {nav['lifted_runs']} /"
                       f" {nav['slipped_runs']} |", flush=True)
     out = Path(__file__).parent / "results" / "robustness.json"
-    out.write_text(json.dumps({"runs_per_cell": args.runs, "wall_s": time.monotonic() - started, "rows": rows},
-                              indent=2) + "\n")
+    write_results(out, {"runs_per_cell": args.runs, "wall_s": time.monotonic() - started, "rows": rows})
     print(f"{args.runs} seeds per cell, {time.monotonic() - started:.0f} s; written to {out}")
     return 0
 

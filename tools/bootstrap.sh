@@ -16,12 +16,14 @@ mkdir -p log
 
 # The compiled kernels (twbr_batch.warm: ~110 s for the batch engine's, ~60 s for the nodes', one core
 # each) are built beside the rest of the set-up, from src/ as soon as numba is installed, into the cache
-# the installed packages load from (twbr_common.jit); set-up waits for them at its end. Only when a
-# source changed (or the venv is new), never with TWBR_JIT=off or TWBR_WARM=0.
+# the installed packages load from (twbr_common.jit); set-up waits for them at its end. With a new venv
+# (a fresh clone), or on `make setup` (TWBR_WARM=1) after a source changed; not when another target
+# sets up after an edit (its run compiles only what it uses, and says so), nor with TWBR_WARM=0 or
+# TWBR_JIT=off.
 warm_pid=""
 start_warm() {
   [ -n "$warm_pid" ] && return 0
-  [ "${TWBR_JIT:-on}" = off ] || [ "${TWBR_WARM:-1}" = 0 ] && return 0
+  [ "${TWBR_JIT:-on}" = off ] || [ "${TWBR_WARM:-}" = 0 ] && return 0
   local path
   path="$(find "$ROOT/src" -mindepth 1 -maxdepth 1 -type d -name 'twbr_*' | LC_ALL=C sort | paste -sd:)"
   PYTHONPATH="$path${PYTHONPATH:+:$PYTHONPATH}" TWBR_CONFIG_DIR="$ROOT/config" \
@@ -100,7 +102,7 @@ if [ -f "$built" ] && [ -d install ] && [ "$(cat "$built")" = "$sources" ] \
   exit 0
 fi
 rm -f "$built"
-start_warm
+[ "${TWBR_WARM:-}" = 1 ] && start_warm
 skip=()
 if [ "$underlay" = system ] && [ -d "/opt/ros/jazzy/share/tf2_msgs" ]; then
   skip=(--packages-skip tf2_msgs)   # the platform has tf2_msgs: never shadow it
