@@ -34,7 +34,7 @@ from twbr_common.jit import (
 )
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
-from twbr_common.timing import is_due, next_due
+from twbr_common.timing import is_due, next_due, takes_effect
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
@@ -206,8 +206,8 @@ N_TRACE = len(TRACE_LAYOUT)
 # the sample (computed there in lanes, vectorised; else by the sample itself).
 LOOP_LAYOUT = Layout((
     "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
-    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "commanded", "derived", "world_t",
-    "agent_steps",
+    "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "plan_stamp", "commanded", "derived",
+    "world_t", "agent_steps",
 ))
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
@@ -223,11 +223,64 @@ L_NEXT_V = LOOP_LAYOUT["next_v"]
 L_NEXT_W = LOOP_LAYOUT["next_w"]
 L_COMMAND_STAMP = LOOP_LAYOUT["command_stamp"]
 L_NEW_PLAN = LOOP_LAYOUT["new_plan"]
+L_PLAN_STAMP = LOOP_LAYOUT["plan_stamp"]  # [s] the instant the pending plan (next_v, next_w) was made
 L_COMMANDED = LOOP_LAYOUT["commanded"]
 L_DERIVED = LOOP_LAYOUT["derived"]
 L_WORLD_T = LOOP_LAYOUT["world_t"]  # the last world instant: positions[j] are the obstacles then [s]
 L_AGENT_STEPS = LOOP_LAYOUT["agent_steps"]  # the agents' steps done (agents.agents_advance)
 N_LOOP = len(LOOP_LAYOUT)
+
+
+# Per-robot memories of a batch (rows by robot), one array each, in a tuple read by these names' indices
+# (a named tuple cannot cross into a parallel loop's body in numba): M_LOOP is LOOP_LAYOUT; the cascade's
+# state and outputs; the planner's memory, progress ring and outputs; the world's tally; the obstacles'
+# positions [m] at the last world instant and distances [m]; whether each obstacle is in range and the robot's
+# state when it came in; the state's derivative, the IMU reading, odom, wheel loads; the estimator's
+# memory, the agents' states and the obstacles' velocities [m/s].
+MEMORIES = (
+    "loop",
+    "control",
+    "control_out",
+    "planner_memory",
+    "ring",
+    "plan_out",
+    "tally",
+    "positions",
+    "distances",
+    "detected",
+    "detected_at",
+    "derivative",
+    "reading",
+    "odometry",
+    "loads",
+    "estimator_memory",
+    "agent_state",
+    "velocities",
+)
+M_LOOP = MEMORIES.index("loop")
+M_CONTROL = MEMORIES.index("control")
+M_CONTROL_OUT = MEMORIES.index("control_out")
+M_PLANNER_MEMORY = MEMORIES.index("planner_memory")
+M_RING = MEMORIES.index("ring")
+M_PLAN_OUT = MEMORIES.index("plan_out")
+M_TALLY = MEMORIES.index("tally")
+M_POSITIONS = MEMORIES.index("positions")
+M_DISTANCES = MEMORIES.index("distances")
+M_DETECTED = MEMORIES.index("detected")
+M_DETECTED_AT = MEMORIES.index("detected_at")
+M_DERIVATIVE = MEMORIES.index("derivative")
+M_READING = MEMORIES.index("reading")
+M_ODOMETRY = MEMORIES.index("odometry")
+M_LOADS = MEMORIES.index("loads")
+M_ESTIMATOR_MEMORY = MEMORIES.index("estimator_memory")
+M_AGENT_STATE = MEMORIES.index("agent_state")
+M_VELOCITIES = MEMORIES.index("velocities")
+# What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
+# motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
+# v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
+# and the estimator's settings.
+WORLD_ARRAYS = ("segments", "agents", "waypoints", "radii", "profile")
+SENSOR_ARRAYS = ("imu_c", "imu_m", "generators", "encoder_c", "encoder_m", "estimator_q")
 
 
 @kernel
@@ -250,21 +303,20 @@ def new_memories(n, run, n_obstacles):
 @kernel
 def robot_begin(j, run, result, memories, imu_c, imu_m, generator, agents):
     """Set robot j of `memories` to the start of a run (its result row holds the running tallies)."""
-    loop, control, _out, memory, ring, _plan, tally, _pos, _dist, detected, detected_at, _d, _r, _o, _l, \
-        estimator_m, agent_state, _v = memories
-    agents_begin(agents, agent_state[j])
+    loop, control = memories[M_LOOP], memories[M_CONTROL]
+    agents_begin(agents, memories[M_AGENT_STATE][j])
     loop[j, :] = 0.0
     loop[j, L_WORLD_NEXT] = -math.inf
     loop[j, L_PLAN_NEXT] = -math.inf
     loop[j, L_COMMANDED] = 0.0 if run[U_HAS_TARGET] != 0.0 else 1.0  # a planner's first command applies
     control[j, :] = 0.0                                                # from the second sample
     control[j, K_ENABLED] = 1.0
-    memory[j, :] = 0.0
-    ring[j] = 0.0
-    tally[j, :] = 0.0
-    detected[j, :] = False
-    detected_at[j] = 0.0
-    estimator_m[j, :] = 0.0
+    memories[M_PLANNER_MEMORY][j, :] = 0.0
+    memories[M_RING][j] = 0.0
+    memories[M_TALLY][j, :] = 0.0
+    memories[M_DETECTED][j, :] = False
+    memories[M_DETECTED_AT][j] = 0.0
+    memories[M_ESTIMATOR_MEMORY][j, :] = 0.0
     result[:] = 0.0
     result[Z_REACHED_AT] = math.nan
     result[Z_MIN_CLEARANCE] = math.inf
@@ -302,8 +354,7 @@ def robots_moved(run, results, segments, draws, running, lo, size, fell):
 @inline_kernel
 def robot_end(run, results, memories, j):
     """Robot j's result row from its tallies."""
-    loop = memories[0]
-    tally = memories[6]
+    loop, tally = memories[M_LOOP], memories[M_TALLY]
     sample_time = run[U_STEPS_PER_CONTROL] * run[U_H]
     results[j, Z_COLLISIONS] = tally[j, W_COLLISIONS]
     results[j, Z_LIFTED_TIME] = loop[j, L_LIFTED_SAMPLES] * sample_time
@@ -334,8 +385,7 @@ SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread,
 
 
 @kernel
-def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents, waypoints, radii,
-             profile, results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
+def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, results, traces, torque_limits,
              memories):
     """The samples of robots running[lo:hi], each as run_closed_loop's: sense the state, assess the world,
     plan, control. ended[q]: robot running[q]'s run ends there, its result then complete; else the torques
@@ -346,8 +396,16 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents
     reference count for each, an atomic operation on a counter the two threads share. Rows are taken only
     for the calls that want one (the planner and the world at their rates, the sensors' models, the
     controller); the controller's settings are this call's copy."""
-    loop, control, control_out, memory, ring, plan_out, tally, positions, distances, detected, detected_at, \
-        derivative, reading, odometry, loads, estimator_m, agent_state, velocities = memories
+    loop, control, control_out = memories[M_LOOP], memories[M_CONTROL], memories[M_CONTROL_OUT]
+    memory, ring, plan_out = memories[M_PLANNER_MEMORY], memories[M_RING], memories[M_PLAN_OUT]
+    tally, positions, distances = memories[M_TALLY], memories[M_POSITIONS], memories[M_DISTANCES]
+    velocities, agent_state = memories[M_VELOCITIES], memories[M_AGENT_STATE]
+    detected, detected_at = memories[M_DETECTED], memories[M_DETECTED_AT]
+    derivative, reading = memories[M_DERIVATIVE], memories[M_READING]
+    odometry, loads = memories[M_ODOMETRY], memories[M_LOADS]
+    estimator_m = memories[M_ESTIMATOR_MEMORY]
+    segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
+    imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
     h = run[U_H]
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
@@ -372,6 +430,12 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents
         odom_yaw = states[j, S_PSI]
         odom_velocity = states[j, S_XD]
         yaw_rate = states[j, S_PSID]
+        if has_target and loop[j, L_NEW_PLAN] != 0.0 and takes_effect(loop[j, L_PLAN_STAMP], t):
+            loop[j, L_V_REF] = loop[j, L_NEXT_V]  # as controller_node takes a cmd_vel (VelocityCommand)
+            loop[j, L_W_REF] = loop[j, L_NEXT_W]
+            loop[j, L_COMMAND_STAMP] = t
+            loop[j, L_NEW_PLAN] = 0.0
+            loop[j, L_COMMANDED] = 1.0
         derived = loop[j, L_DERIVED] != 0.0  # by the physics, in lanes
         loop[j, L_DERIVED] = 0.0
         if derive and not derived:  # under the command applied now
@@ -435,6 +499,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents
                 loop[j, L_NEXT_V] = plan_out[j, Q_V]
                 loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
                 loop[j, L_NEW_PLAN] = 1.0
+                loop[j, L_PLAN_STAMP] = t
                 stuck = plan_out[j, Q_MODE] == STUCK
                 results[j, Z_STUCK_AT_END] = 1.0 if stuck else 0.0
                 if stuck:
@@ -483,13 +548,6 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, segments, agents
             traces[j, k, T_YAW_RATE_REF] = control_out[j, O_YAW_RATE_REF]
             traces[j, k, T_PITCH_TRUE] = true_pitch
             traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
-        if has_target:  # the controller takes a cmd_vel from the first state stamped after it
-            loop[j, L_V_REF] = loop[j, L_NEXT_V]
-            loop[j, L_W_REF] = loop[j, L_NEXT_W]
-            if loop[j, L_NEW_PLAN] != 0.0:
-                loop[j, L_COMMAND_STAMP] = (step_count + run[U_STEPS_PER_CONTROL]) * h
-                loop[j, L_NEW_PLAN] = 0.0
-                loop[j, L_COMMANDED] = 1.0
         results[j, Z_SIM_TIME] = t
         results[j, Z_SAMPLES] = k + 1
         if (k == int(run[U_N_SAMPLES]) - 1 or results[j, Z_FALLEN] != 0.0
@@ -523,9 +581,9 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
     memories = new_memories(n, run, radii.shape[0])
-    loop = memories[0]
-    derivative = memories[11]
-    loads = memories[14]
+    loop, derivative, loads = memories[M_LOOP], memories[M_DERIVATIVE], memories[M_LOADS]
+    world = (segments, agents, waypoints, radii, profile)  # WORLD_ARRAYS
+    sensors = (imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q)  # SENSOR_ARRAYS
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
@@ -540,16 +598,13 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     n_running = n
     while n_running > 0:
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
-            _samples(running, np.int64(0), n_running, ended, params, states, c, a, run, segments, agents,
-                     waypoints, radii, profile, results, traces, imu_c, imu_m, generators, encoder_c,
-                     encoder_m, estimator_q, torque_limits, memories)
+            _samples(running, np.int64(0), n_running, ended, params, states, c, a, run, world, sensors, results,
+                     traces, torque_limits, memories)
         else:
             share = (n_running + threads - 1) // threads
             for g in prange(threads):
                 _samples(running, min(g * share, n_running), min((g + 1) * share, n_running), ended, params,
-                         states, c, a, run, segments, agents, waypoints, radii, profile, results,
-                         traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, torque_limits,
-                         memories)
+                         states, c, a, run, world, sensors, results, traces, torque_limits, memories)
         m = 0
         for q in range(n_running):
             if not ended[q]:

@@ -26,10 +26,20 @@ def next_due(t: float, due_at: float, period: float) -> float:
     return following if following > t + SLACK else t + period
 
 
-# The same two functions run by the interpreter: a node's Python loop calls them several times per state,
+@kernel
+def takes_effect(command_stamp: float, state_stamp: float) -> bool:
+    """Whether a command stamped command_stamp [s] applies to the state stamped state_stamp [s]: from the
+    first state stamped after it, so whether the answer to a state arrives just before or just after the
+    next state's message never changes the command computed for it (state_sync.VelocityCommand, the batch
+    engine)."""
+    return command_stamp < state_stamp
+
+
+# The same functions run by the interpreter: a node's Python loop calls them several times per state,
 # where a call through the compiled dispatcher costs several times the arithmetic.
 _is_due = getattr(is_due, "py_func", is_due)
 _next_due = getattr(next_due, "py_func", next_due)
+takes_effect_interpreted = getattr(takes_effect, "py_func", takes_effect)
 
 
 class Decimator:

@@ -1,6 +1,7 @@
 """The cascade's structure: signs, allocation with balance first, limits, fall cut-off, enable, time."""
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -164,6 +165,12 @@ def test_a_cmd_vel_takes_effect_from_the_state_after_it_whatever_the_order_of_ar
     assert fresh.at(0.0) == (0.0, 0.0, True)
     early.reset()
     assert early.at(2.0) == (0.0, 0.0, True)
+    # The rule is one kernel, which the batch engine calls compiled: the same answers both ways.
+    from twbr_common.timing import takes_effect, takes_effect_interpreted
+
+    for command_stamp, state_stamp in ((1.0, 1.005), (1.0, 1.0), (1.005, 1.0), (math.nan, 1.0), (-math.inf, 0.0)):
+        assert takes_effect(command_stamp, state_stamp) == takes_effect_interpreted(command_stamp, state_stamp) \
+            == (command_stamp < state_stamp)
 
 
 def test_a_rate_limited_yaw_rate_step_moves_the_torque_in_tenths():

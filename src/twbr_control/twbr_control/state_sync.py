@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
+from twbr_common.timing import takes_effect_interpreted
+
 
 @dataclass(frozen=True)
 class RobotState:
@@ -106,7 +108,7 @@ class VelocityCommand:
 
     def at(self, stamp: float) -> tuple[float, float, bool]:
         """(v_ref [m/s], omega_ref [rad/s], stale) for the state stamped `stamp` [s]."""
-        if self._next is not None and self._next[0] < stamp:
+        if self._next is not None and takes_effect_interpreted(self._next[0], stamp):
             self._stamp, *refs = self._next
             self.since = stamp
             self._refs = (refs[0], refs[1])
