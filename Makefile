@@ -4,6 +4,8 @@ SCENARIO ?= dynamic_obstacles
 N ?= 100
 PERTURB ?= 0
 RUN := tools/run.sh
+# demo, montecarlo and suite check their arguments before anything is set up or built
+CHECK := python3 tools/check_args.py
 
 .PHONY: all setup test test-long unit e2e e2e-loaded demo montecarlo suite bench robustness lint clean
 all: setup
@@ -28,14 +30,20 @@ e2e: setup
 e2e-loaded: setup
 	@TWBR_TEST_BUSY=1 $(RUN) python -m pytest -q -m "e2e and not long"
 
-demo: setup
+demo:
+	@$(CHECK) --scenario '$(SCENARIO)'
+	@bash tools/bootstrap.sh
 	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER)) $(if $(VIEW),--view)
 
-montecarlo: setup
+montecarlo:
+	@$(CHECK) --scenario '$(SCENARIO)' --runs '$(N)' --perturb '$(PERTURB)'
+	@bash tools/bootstrap.sh
 	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(CONTROLLER),--controller $(CONTROLLER))
 
 SUITE_N ?= 1000
-suite: setup
+suite:
+	@$(CHECK) --runs '$(SUITE_N)' $(if $(SCENARIOS),--scenarios '$(SCENARIOS)')
+	@bash tools/bootstrap.sh
 	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(if $(SCENARIOS),--scenarios $(SCENARIOS)) $(if $(METHODS),--methods $(METHODS)) $(SUITE_ARGS)
 
 BENCH_OUT ?= benchmarks/results
@@ -55,6 +63,7 @@ bench: setup
 	@$(RUN) python benchmarks/compare_engines.py --json $(BENCH_OUT)/engines.json
 	@$(RUN) python benchmarks/study_paper_runs.py --json $(BENCH_OUT)/paper_runs.json
 	@$(RUN) python benchmarks/bench_first_run.py --json $(BENCH_OUT)/first_run.json
+	@$(RUN) python benchmarks/figures.py --write
 
 # Issue 17's robustness table (pid and lqr, ideal and realistic sensors, nominal / ±20 / ±40 % robots)
 ROBUST_N ?= 1000

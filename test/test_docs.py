@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import re
+import sys
 from pathlib import Path
 
 from twbr_runner.parameter_docs import render
@@ -58,3 +60,42 @@ def test_the_paper_runs_the_docs_show_are_the_measured_ones():
             assert float(reached) == round(measured["reached_at_s"], 1), (doc.name, name, "reached at")
             assert float(clearance) == round(measured["min_clearance_m"], 2), (doc.name, name, "clearance")
             assert float(pitch) == round(measured["pitch_abs_max_rad"], 4), (doc.name, name, "pitch")
+
+
+def _figures_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("figures", ROOT / "benchmarks" / "figures.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclass looks its module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_benchmarks_table_is_the_one_the_results_give():
+    """benchmarks/README.md's table is rendered from benchmarks/results (benchmarks/figures.py): a figure
+    typed by hand there, or a result measured again without the table re-rendered, fails here."""
+    figures = _figures_module()
+    readme = (ROOT / "benchmarks" / "README.md").read_text()
+    block = figures.current_block(readme)
+    assert block, "benchmarks/README.md lost its generated table's markers"
+    assert block == figures.render(), "run: tools/run.sh python benchmarks/figures.py --write"
+
+
+def test_every_result_says_when_and_at_which_commit_it_was_measured():
+    for path in sorted((ROOT / "benchmarks" / "results").glob("*.json")):
+        data = json.loads(path.read_text())
+        assert re.fullmatch(r"\d{4}-\d\d-\d\d", str(data.get("date"))), f"{path.name} has no date"
+        assert re.fullmatch(r"[0-9a-f]{7,40}\+?", str(data.get("commit"))), f"{path.name} has no commit"
+
+
+def test_speed_figures_in_the_docs_are_the_table_s():
+    """A batch-engine rate or a real-time factor in README.md or docs/ must be one the current table shows
+    (they cite it); the history of how they moved is benchmarks/HISTORY.md's."""
+    table = _figures_module().render()
+    shown = set(re.findall(r"(\d+(?:\.\d+)?) M\b", table)) | set(re.findall(r"real-time factor (\d+(?:\.\d+)?)", table))
+    pattern = re.compile(r"(\d+(?:\.\d+)?)(?:[–-]\d+(?:\.\d+)?)? M robot-steps/s|real-time factor (\d+(?:\.\d+)?)")
+    for doc in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for match in pattern.finditer(doc.read_text()):
+            value = match.group(1) or match.group(2)
+            assert value in shown, f"{doc.name}: {match.group(0)!r} is not in benchmarks/README.md's table"
