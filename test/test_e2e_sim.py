@@ -5,12 +5,13 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
 import pytest
 from conftest import CONFIG, assert_refused_at_start
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, LaserScan
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
@@ -20,6 +21,7 @@ from twbr_common.ros_io import stamp_ns, to_stamp
 from twbr_msgs.msg import ObstacleArray, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import robot_params
+from twbr_sim.scan_messages import TF_STATIC_QOS
 from twbr_sim.scenario import load_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator
 from twbr_sim.world import World
@@ -52,7 +54,9 @@ def test_published_state_equals_the_core_driven_by_the_same_commands(launch, ros
                  params=SIM_PARAMS)
     rec = Recorder(ros, {"imu": Imu, "joint_states": JointState, "sim_status": SimStatus,
                          "/tf": TFMessage, "target": Odometry, "obstacles": ObstacleArray,
-                         "world_markers": MarkerArray, "/clock": Clock})
+                         "world_markers": MarkerArray, "/clock": Clock, "scan": LaserScan})
+    static: list[TFMessage] = []
+    ros.node.create_subscription(TFMessage, "/tf_static", static.append, TF_STATIC_QOS)
     pub = ros.node.create_publisher(WheelTorques, "wheel_torque_cmd", RELIABLE)
     odoms: list[Odometry] = []
 
@@ -72,8 +76,10 @@ def test_published_state_equals_the_core_driven_by_the_same_commands(launch, ros
     by_stamp = {stamp_ns(m.header.stamp): m for m in odoms}
     imus = {stamp_ns(m.header.stamp): m for m in rec.msgs["imu"]}
     joints = {stamp_ns(m.header.stamp): m for m in rec.msgs["joint_states"]}
+    scans = {stamp_ns(m.header.stamp): m for m in rec.msgs["scan"]}
     n_states = round(duration * 200) + 1
     assert len(by_stamp) == n_states
+    assert sorted(scans) == [k * 100_000_000 for k in range(round(duration * 10) + 1)]  # 10 Hz of sim time
     for k in range(n_states):
         ns = k * 5_000_000
         odom, imu, js = by_stamp[ns], imus[ns], joints[ns]
@@ -93,6 +99,8 @@ def test_published_state_equals_the_core_driven_by_the_same_commands(launch, ros
         assert list(js.position) == pytest.approx([s[dyn.S_GL], s[dyn.S_GR]], abs=1e-12)
         assert list(js.velocity) == pytest.approx(list(core.wheel_rates()), abs=1e-12)
         assert list(js.effort) == pytest.approx(list(core.wheel_torques()), abs=1e-12)
+        if ns in scans:  # the scan the core casts from this state, noise and dropouts drawn alike
+            assert np.array_equal(np.array(scans[ns].ranges, dtype=np.float32), core.scan().astype(np.float32))
         core.offer_command(ns * 1e-9, *torque_for(odom))  # what the simulator received for this state
         core.advance(5)
     # The robot really moved and turned, upright.
@@ -104,6 +112,18 @@ def test_published_state_equals_the_core_driven_by_the_same_commands(launch, ros
     tf = rec.msgs["/tf"][-1].transforms[0]
     assert (tf.header.frame_id, tf.child_frame_id) == ("odom", "base_link")
     assert rec.msgs["/clock"][-1].clock == to_stamp(round(duration * 1e9))
+    scan = rec.msgs["scan"][-1]
+    assert scan.header.frame_id == "laser" and len(scan.ranges) == 360 and scan.scan_time == pytest.approx(0.1)
+    assert (scan.angle_min, scan.angle_increment) == pytest.approx((-math.pi, math.radians(1.0)))
+    assert scan.angle_max == pytest.approx(scan.angle_min + 359 * scan.angle_increment)
+    assert (scan.range_min, scan.range_max) == pytest.approx((0.15, 12.0))
+    ranges = np.array(scan.ranges)
+    assert np.isposinf(ranges).any() and not np.isnan(ranges).any()  # REP 117: no return is +inf
+    finite = ranges[np.isfinite(ranges)]
+    assert len(finite) > 0 and finite.min() >= 0.15 and finite.max() <= 12.0
+    laser = static[-1].transforms[0]
+    assert (laser.header.frame_id, laser.child_frame_id, laser.transform.translation.z) == ("base_link", "laser",
+                                                                                           pytest.approx(0.25))
     status = rec.msgs["sim_status"][-1]
     assert status.lockstep_timeouts == 0 and status.commands_rejected == 0 and not status.fallen
     assert status.steps == round(duration * 1000)

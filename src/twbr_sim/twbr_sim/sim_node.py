@@ -16,7 +16,7 @@ from geometry_msgs.msg import Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, LaserScan
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
@@ -41,6 +41,7 @@ from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
+from twbr_sim.scan_messages import TF_STATIC_QOS, laser_scan, laser_transform
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
@@ -91,6 +92,11 @@ class SimNode(Node):
         self.pub_truth = (None if self.sim.ideal_sensors
                           else self.create_publisher(Odometry, "ground_truth", SENSOR_PUB_QOS))
         self.pub_tf = self.create_publisher(TFMessage, "/tf", 100)
+        self.pub_scan = None
+        if cfg["lidar.rate"] > 0.0:
+            self.pub_scan = self.create_publisher(LaserScan, "scan", SENSOR_PUB_QOS)
+            self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
+            self.pub_tf_static.publish(TFMessage(transforms=[laser_transform(cfg, cfg["base_frame"], to_stamp(0))]))
         self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_QOS)
         self.hosting_world = scenario is not None and cfg["host_world"]
         if self.hosting_world:
@@ -115,7 +121,7 @@ class SimNode(Node):
             self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
         self.exchange = LockstepExchange(planner_every, cfg["wait_for_first_command"])
         self.publications = Publications(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"],
-                                         cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"])
+                                         cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"], cfg["lidar.rate"])
         self.get_logger().info(
             f"{cfg['mode']} {self.ENGINE} simulation at {cfg['physics_rate']:g} Hz, state every"
             f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
@@ -268,6 +274,8 @@ class SimNode(Node):
             q = pose.orientation
             tf.transform.rotation = Quaternion(x=q.x, y=q.y, z=q.z, w=q.w)  # odom's is refilled next state
             out.append((self.pub_tf, TFMessage(transforms=[tf])))
+        if due.scan:
+            out.append((self.pub_scan, laser_scan(self.cfg, sim.scan(), stamp)))
         if due.markers and self.pub_markers.get_subscription_count():  # built only while a viewer listens
             world = sim.world
             out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,

@@ -14,19 +14,22 @@ import numpy as np
 from twbr_common.guard import INPUT_SPECS, TORQUE_LIMIT, InputGuard, Verdict, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
+from twbr_sim import lidar
 from twbr_sim.encoders import ENCODER_SPECS, J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
 from twbr_sim.encoders import new_memory as new_encoder_memory
 from twbr_sim.encoders import settings_vector as encoder_vector
 from twbr_sim.imu import IMU_SPECS, ImuModel, ImuReading
-from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.lidar import LIDAR_SPECS
+from twbr_sim.noise import new_generator
+from twbr_sim.robot_params import P_R, P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
 from twbr_sim.traction import TRACTION_SPECS, traction_flags, wheel_loads
 from twbr_sim.world import Assessment, World
 
 # What a batch study may set of the robot's sensors and traction (SIM_SPECS has them all).
-SENSOR_SPECS: tuple[ParamSpec, ...] = (*IMU_SPECS, *ENCODER_SPECS, *TRACTION_SPECS)
+SENSOR_SPECS: tuple[ParamSpec, ...] = (*IMU_SPECS, *ENCODER_SPECS, *TRACTION_SPECS, *LIDAR_SPECS)
 
 SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("physics_rate", 1000.0, "rate of the RK4 integration of dynamics and motors", "Hz", 10.0, 100000.0),
@@ -131,6 +134,9 @@ class Simulator:
         self._encoder_c = encoder_vector(settings, settings["publish_rate"])
         self._encoder_m = new_encoder_memory(self._encoder_c)
         self.friction = settings["traction.friction"]
+        self.lidar_rate = settings["lidar.rate"]
+        self._lidar_s = lidar.settings_vector(settings)
+        self._lidar_generator = new_generator(seed, lidar.LIDAR_STREAM)
         self.traction = TractionTally()
         self._sample: tuple[int, SensorSample] | None = None
         sc = scenario
@@ -152,6 +158,22 @@ class Simulator:
         twin.sense()
         twin.wheel_torques()
         twin.assess()
+        if twin.lidar_rate > 0.0:
+            twin.scan()
+
+    def scan(self) -> np.ndarray:
+        """One LiDAR scan started at the current state (lidar.py): ranges [m] by beam, the device's noise
+        and dropouts included, REP 117's -inf / +inf outside its range."""
+        s = self.state
+        obstacles = self.world.obstacles() if self.world is not None else []
+        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
+        velocities = np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2)
+        radii = np.array([o.radius for o in obstacles], dtype=float)
+        ranges = np.empty(int(self._lidar_s[lidar.L_BEAMS]))
+        lidar.cast_scan(self._lidar_s, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
+                        s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
+        lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)
+        return ranges
 
     @property
     def ideal_sensors(self) -> bool:

@@ -124,25 +124,29 @@ class StateTopics(NamedTuple):
 class StateTelemetryTopics(NamedTuple):
     tf: bool
     markers: bool
+    scan: bool
 
 
 class Publications:
     """Which decimated topics go out at sim time t: /clock and the world with the state, /tf, sim_status
     (also whenever a flag changes) and the markers with telemetry."""
 
-    def __init__(self, clock_rate: float, world_rate: float, tf_rate: float, marker_rate: float) -> None:
+    def __init__(self, clock_rate: float, world_rate: float, tf_rate: float, marker_rate: float,
+                 scan_rate: float = 0.0) -> None:
         self._clock = Decimator(clock_rate)
         self._world = Decimator(world_rate)
         self._tf = Decimator(tf_rate)
         self._status = Decimator(world_rate)
         self._markers = Decimator(marker_rate)
+        self._scan = Decimator(scan_rate) if scan_rate > 0.0 else None  # 0: no scan topic
 
     def with_state(self, t: float, hosting_world: bool) -> StateTopics:
         clock = self._clock.due(t)
         return StateTopics(clock, hosting_world and self._world.due(t))
 
     def with_state_telemetry(self, t: float, hosting_world: bool) -> StateTelemetryTopics:
-        return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t))
+        return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t),
+                                    self._scan is not None and self._scan.due(t))
 
     def status_due(self, t: float, flags_changed: bool) -> bool:
         return self._status.due(t) or flags_changed
