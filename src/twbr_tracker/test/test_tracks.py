@@ -1,0 +1,102 @@
+"""Tracks of people the simulator's LiDAR sees: where they are, how fast, the same id while they are seen,
+no swap where two pass each other, dropped when gone."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twbr_common.params import defaults
+from twbr_sim.lidar import LIDAR_SPECS, LIDAR_STREAM, cast_scan, scan_noise
+from twbr_sim.lidar import settings_vector as lidar_vector
+from twbr_sim.noise import new_generator
+from twbr_tracker.detection import DETECTION_SPECS, detect
+from twbr_tracker.detection import settings_vector as detection_vector
+from twbr_tracker.tracks import (
+    TR_CONFIRMED,
+    TR_ID,
+    TR_MOVING,
+    TR_VX,
+    TR_VY,
+    TR_X,
+    TR_Y,
+    TRACK_SPECS,
+    new_tracks,
+    settings_vector,
+    track_step,
+)
+
+AXLE = 0.10
+RATE = 10.0
+
+
+def run(people, seconds: float, noisy: bool = True, seed: int = 1):
+    """Scans of people moving in straight lines ((x0, y0, vx, vy, radius) each) seen from a still robot at
+    the origin, tracked; yields (t, confirmed tracks, truth positions and velocities) per scan."""
+    lidar_cfg = {**defaults(LIDAR_SPECS), **({} if noisy else {"lidar.range_noise_std": 0.0, "lidar.dropout": 0.0})}
+    ls = lidar_vector(lidar_cfg)
+    ds = detection_vector(defaults(DETECTION_SPECS))
+    ks = settings_vector(defaults(TRACK_SPECS))
+    tracks, cov = new_tracks(ks)
+    n, next_id = 0, 1
+    g = new_generator(seed, LIDAR_STREAM)
+    p = np.array(people, dtype=float)
+    for k in range(round(seconds * RATE) + 1):
+        t = k / RATE
+        positions = p[:, :2] + t * p[:, 2:4]
+        ranges = np.empty(360)
+        cast_scan(ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE, positions, p[:, 2:4].copy(), p[:, 4].copy(), ranges)
+        scan_noise(ls, g, ranges)
+        discs = np.empty((360, 4))
+        m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0, 0.0, AXLE, lidar_cfg["lidar.height"], discs)
+        # the scan's beams are spread over its turn: the tracker takes the scan at its middle instant
+        n, next_id = track_step(ks, tracks, cov, n, next_id, t, discs, m)
+        yield t, tracks[:n][tracks[:n, TR_CONFIRMED] != 0.0].copy(), positions, p[:, 2:4]
+
+
+def nearest(track, positions) -> int:
+    return int(np.argmin(np.hypot(positions[:, 0] - track[TR_X], positions[:, 1] - track[TR_Y])))
+
+
+def test_a_walking_person_is_one_track_with_its_position_and_velocity():
+    errors, speed_errors, ids = [], [], set()
+    for t, confirmed, positions, velocities in run([(4.0, -2.0, 0.0, 0.6, 0.3)], 6.0):
+        if t < 1.0:
+            continue  # after the track's first second
+        assert len(confirmed) == 1
+        track = confirmed[0]
+        ids.add(track[TR_ID])
+        # the centre seen from one side: the fitted centre of a noisy arc
+        errors.append(math.hypot(track[TR_X] - positions[0, 0], track[TR_Y] - positions[0, 1]))
+        speed_errors.append(math.hypot(track[TR_VX] - velocities[0, 0], track[TR_VY] - velocities[0, 1]))
+        assert track[TR_MOVING] == 1.0
+    assert len(ids) == 1
+    assert np.sqrt(np.mean(np.square(errors))) <= 0.05
+    assert np.sqrt(np.mean(np.square(speed_errors))) <= 0.10
+
+
+def test_two_people_crossing_keep_their_ids():
+    people = [(3.0, -2.5, 0.0, 0.8, 0.25), (3.6, 2.5, 0.0, -0.8, 0.25)]  # they pass 0.6 m apart at t = 3.1 s
+    owner: dict[float, int] = {}
+    for t, confirmed, positions, _v in run(people, 6.0):
+        for track in confirmed:
+            who = nearest(track, positions)
+            assert owner.setdefault(track[TR_ID], who) == who, f"track {track[TR_ID]} swapped at t = {t}"
+    assert len(owner) == 2
+
+
+def test_a_still_post_is_static_and_a_vanished_person_is_dropped():
+    post = run([(2.0, 1.0, 0.0, 0.0, 0.2)], 2.0)
+    last = list(post)[-1][1]
+    assert len(last) == 1 and last[0, TR_MOVING] == 0.0
+    gone = list(run([(3.0, 0.0, 0.0, 3.0, 0.3)], 6.0))  # out of the 12 m range from t = 3.9 s
+    assert len(gone[15][1]) == 1 and len(gone[-1][1]) == 0
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_same_scans_give_the_same_tracks(seed):
+    a = [c for _t, c, _p, _v in run([(4.0, -2.0, 0.0, 0.6, 0.3)], 2.0, seed=seed)]
+    b = [c for _t, c, _p, _v in run([(4.0, -2.0, 0.0, 0.6, 0.3)], 2.0, seed=seed)]
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))

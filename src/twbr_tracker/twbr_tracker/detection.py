@@ -1,0 +1,228 @@
+"""From one 2D LiDAR scan to discs in the odom frame: points, segments, and a disc per compact segment or a
+chain of discs along a long one (a wall, a table edge).
+
+1. Points: each finite return placed in odom from the robot's pose and pitch (the scanner is `height` up the
+   leaning body, as twbr_sim/lidar.py casts it); a return whose hit is within `floor_margin` of the floor is
+   the floor that a leaning scan sweeps, not an obstacle.
+2. Segments: neighbouring beams whose points are closer than `gap` + `gap_per_metre` x range (the spacing
+   of two beams grows with the range) belong together (the adaptive breakpoint rule of Borges & Aldon 2004).
+3. Discs: a segment no longer than `max_disc_extent` is one disc, fitted to its points by least squares
+   (Kasa's algebraic circle fit) when that fit is sane, else the segment's centroid pushed away from the
+   scanner by half its extent (a scanner sees only the near side of a person); a longer one is a chain of
+   discs `chain_spacing` apart along it.
+
+Every step is a compiled kernel on flat arrays; `detect` composes them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twbr_common.jit import kernel
+from twbr_common.layout import Layout
+from twbr_common.params import ParamSpec
+
+DETECTION_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("detection.floor_margin", 0.05, "a return this close above the floor is the floor", "m", 0.0, 1.0),
+    ParamSpec("detection.gap", 0.12, "break a segment where neighbouring points are farther apart than this,"
+              " plus detection.gap_per_metre times their range", "m", 0.0, 5.0, low_open=True),
+    ParamSpec("detection.gap_per_metre", 0.03, "breakpoint allowance per metre of range", "", 0.0, 1.0),
+    ParamSpec("detection.min_points", 2, "fewer points than this are noise, not an object", "", 1, 100),
+    ParamSpec("detection.max_disc_extent", 1.2, "a longer segment is a wall: a chain of discs", "m", 0.1, 10.0),
+    ParamSpec("detection.min_radius", 0.05, "smallest disc reported", "m", 0.0, 5.0),
+    ParamSpec("detection.chain_spacing", 0.4, "distance between the discs of a wall's chain", "m", 0.05, 5.0),
+)
+
+SETTINGS_LAYOUT = Layout(("floor_margin", "gap", "gap_per_metre", "min_points", "max_disc_extent", "min_radius",
+                          "chain_spacing"))
+D_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
+D_GAP = SETTINGS_LAYOUT["gap"]
+D_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
+D_MIN_POINTS = SETTINGS_LAYOUT["min_points"]
+D_MAX_DISC_EXTENT = SETTINGS_LAYOUT["max_disc_extent"]
+D_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
+D_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
+N_SETTINGS = len(SETTINGS_LAYOUT)
+
+# One disc: centre [m], radius [m], and whether it is part of a wall's chain (1) or a compact object (0).
+DISC_LAYOUT = Layout(("x", "y", "radius", "wall"))
+C_X = DISC_LAYOUT["x"]
+C_Y = DISC_LAYOUT["y"]
+C_RADIUS = DISC_LAYOUT["radius"]
+C_WALL = DISC_LAYOUT["wall"]
+N_DISC = len(DISC_LAYOUT)
+
+
+def settings_vector(cfg: dict) -> np.ndarray:
+    s = np.zeros(N_SETTINGS)
+    for name in SETTINGS_LAYOUT.names:
+        s[SETTINGS_LAYOUT[name]] = cfg[f"detection.{name}"]
+    return s
+
+
+@kernel
+def scan_points(ranges, angle_min, angle_increment, x, y, yaw, pitch, axle_height, height, floor_margin, first,
+                points, beams):
+    """The returns of a scan as points in odom [m] (points[k]), taken round from beam `first`, with their
+    place in that order (beams[k]); the floor's and REP 117's infinities left out. Returns how many."""
+    sin_th = math.sin(pitch)
+    cos_th = math.cos(pitch)
+    z = axle_height + height * cos_th
+    sx = x + height * sin_th * math.cos(yaw)
+    sy = y + height * sin_th * math.sin(yaw)
+    c = math.cos(yaw)
+    sn = math.sin(yaw)
+    n = 0
+    n_beams = ranges.shape[0]
+    for k in range(n_beams):
+        i = (first + k) % n_beams
+        r = ranges[i]
+        if not math.isfinite(r):
+            continue
+        bearing = angle_min + i * angle_increment
+        ca = math.cos(bearing)
+        sa = math.sin(bearing)
+        if z - r * ca * sin_th < floor_margin:  # the hit's height above the floor
+            continue
+        fwd = r * ca * cos_th
+        side = r * sa
+        points[n, 0] = sx + fwd * c - side * sn
+        points[n, 1] = sy + fwd * sn + side * c
+        beams[n] = k
+        n += 1
+    return n
+
+
+@kernel
+def segment_points(points, beams, n, scanner_x, scanner_y, gap, gap_per_metre, starts):
+    """Split points[:n] (in beam order) into segments; starts[k] is the first point of segment k and
+    starts[count] = n. A segment also ends where more than one beam is missing between two points.
+    Returns the number of segments."""
+    if n == 0:
+        starts[0] = 0
+        return 0
+    count = 0
+    starts[0] = 0
+    for k in range(1, n):
+        far = math.hypot(points[k, 0] - scanner_x, points[k, 1] - scanner_y)
+        jump = math.hypot(points[k, 0] - points[k - 1, 0], points[k, 1] - points[k - 1, 1])
+        if beams[k] - beams[k - 1] > 2 or jump > gap + gap_per_metre * far:
+            count += 1
+            starts[count] = k
+    count += 1
+    starts[count] = n
+    return count
+
+
+@kernel
+def _circle_fit(points, lo, hi):
+    """Kasa's least-squares circle through points[lo:hi]: (cx, cy, radius), radius inf when degenerate."""
+    mx = 0.0
+    my = 0.0
+    k = hi - lo
+    for i in range(lo, hi):
+        mx += points[i, 0]
+        my += points[i, 1]
+    mx /= k
+    my /= k
+    suu = suv = svv = suuu = svvv = suvv = svuu = 0.0
+    for i in range(lo, hi):
+        u = points[i, 0] - mx
+        v = points[i, 1] - my
+        suu += u * u
+        suv += u * v
+        svv += v * v
+        suuu += u * u * u
+        svvv += v * v * v
+        suvv += u * v * v
+        svuu += v * u * u
+    det = suu * svv - suv * suv
+    if abs(det) < 1e-12:
+        return mx, my, math.inf
+    bu = 0.5 * (suuu + suvv)
+    bv = 0.5 * (svvv + svuu)
+    uc = (bu * svv - bv * suv) / det
+    vc = (bv * suu - bu * suv) / det
+    radius = math.sqrt(uc * uc + vc * vc + (suu + svv) / k)
+    return mx + uc, my + vc, radius
+
+
+@kernel
+def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
+    """The discs of segments 0..count-1 (DISC_LAYOUT rows of `discs`); returns how many."""
+    n = 0
+    for g in range(count):
+        lo = starts[g]
+        hi = starts[g + 1]
+        if hi - lo < s[D_MIN_POINTS]:
+            continue
+        extent = math.hypot(points[hi - 1, 0] - points[lo, 0], points[hi - 1, 1] - points[lo, 1])
+        if extent <= s[D_MAX_DISC_EXTENT]:
+            cx = 0.0
+            cy = 0.0
+            for i in range(lo, hi):
+                cx += points[i, 0]
+                cy += points[i, 1]
+            cx /= hi - lo
+            cy /= hi - lo
+            half = max(0.5 * extent, s[D_MIN_RADIUS])
+            fx, fy, fr = (_circle_fit(points, lo, hi) if hi - lo >= 3 else (cx, cy, math.inf))
+            # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
+            if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
+                    and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
+                discs[n, C_X] = fx
+                discs[n, C_Y] = fy
+                discs[n, C_RADIUS] = max(fr, s[D_MIN_RADIUS])
+            else:  # the near side of a disc of the segment's width
+                d = math.hypot(cx - scanner_x, cy - scanner_y)
+                discs[n, C_X] = cx + half * (cx - scanner_x) / d
+                discs[n, C_Y] = cy + half * (cy - scanner_y) / d
+                discs[n, C_RADIUS] = half
+            discs[n, C_WALL] = 0.0
+            n += 1
+            continue
+        pieces = math.ceil(extent / s[D_CHAIN_SPACING])
+        for q in range(pieces):  # a chain along the segment, each disc over its share of the points
+            a = lo + (hi - lo) * q // pieces
+            b = lo + (hi - lo) * (q + 1) // pieces
+            if b <= a:
+                continue
+            cx = 0.0
+            cy = 0.0
+            for i in range(a, b):
+                cx += points[i, 0]
+                cy += points[i, 1]
+            cx /= b - a
+            cy /= b - a
+            reach = 0.0
+            for i in range(a, b):
+                reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
+            discs[n, C_X] = cx
+            discs[n, C_Y] = cy
+            discs[n, C_RADIUS] = max(reach, s[D_MIN_RADIUS])
+            discs[n, C_WALL] = 1.0
+            n += 1
+    return n
+
+
+@kernel
+def detect(s, ranges, angle_min, angle_increment, x, y, yaw, pitch, axle_height, height, discs):
+    """Discs in odom from one scan taken at the pose (x, y, yaw) [m, rad] and pitch [rad]; returns how many
+    rows of `discs` (at least len(ranges) rows) are filled."""
+    n_beams = ranges.shape[0]
+    points = np.empty((n_beams, 2))
+    beams = np.empty(n_beams, dtype=np.int64)
+    first = 0  # start the round at a beam without a return, so no object is cut in two at the seam
+    for i in range(n_beams):
+        if not math.isfinite(ranges[i]):
+            first = i
+            break
+    n = scan_points(ranges, angle_min, angle_increment, x, y, yaw, pitch, axle_height, height,
+                    s[D_FLOOR_MARGIN], first, points, beams)
+    scanner_x = x + height * math.sin(pitch) * math.cos(yaw)
+    scanner_y = y + height * math.sin(pitch) * math.sin(yaw)
+    starts = np.empty(n_beams + 1, dtype=np.int64)
+    count = segment_points(points, beams, n, scanner_x, scanner_y, s[D_GAP], s[D_GAP_PER_METRE], starts)
+    return fit_discs(s, points, starts, count, scanner_x, scanner_y, discs)

@@ -1,0 +1,183 @@
+"""Tracks of the compact discs a scan shows (detection.py): a constant-velocity Kalman filter each, matched
+to the next scan's discs by the Hungarian method on a gated distance, born from an unmatched disc,
+confirmed after `confirm_hits` matches, dropped after `max_misses` scans without one (a tentative track at
+its first miss), and called moving above `moving_speed`.
+
+The state is (x, y, vx, vy) in odom [m, m/s]; the motion model is white-noise acceleration of spectral
+density `acceleration_noise` (Bar-Shalom, Li & Kirubarajan 2001, ch. 6: Q for a step dt is
+q [dt^3/3, dt^2/2; dt^2/2, dt] per axis); a disc's centre is measured with std `position_noise`. A wall's
+chain (detection's C_WALL) is not tracked: its discs slide along it as the robot moves, and a tracker would
+read that as motion; they pass through as static obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from twbr_common.jit import kernel
+from twbr_common.layout import Layout
+from twbr_common.params import ParamSpec
+from twbr_tracker.assignment import assign
+from twbr_tracker.detection import C_RADIUS, C_WALL, C_X, C_Y
+
+TRACK_SPECS: tuple[ParamSpec, ...] = (
+    ParamSpec("tracking.gate", 0.8, "a disc farther than this from a track's prediction is not its own", "m",
+              0.0, 10.0, low_open=True),
+    ParamSpec("tracking.confirm_hits", 3, "matches before a track is published", "", 1, 100),
+    ParamSpec("tracking.max_misses", 5, "scans without a match before a confirmed track is dropped", "", 0, 1000),
+    ParamSpec("tracking.acceleration_noise", 1.0, "spectral density of the white-noise acceleration", "m^2/s^3",
+              0.0, 100.0, low_open=True),
+    ParamSpec("tracking.position_noise", 0.05, "std of a disc centre as detection measures it", "m", 0.0, 5.0,
+              low_open=True),
+    ParamSpec("tracking.initial_speed_std", 1.0, "std of a new track's velocity", "m/s", 0.0, 100.0, low_open=True),
+    ParamSpec("tracking.moving_speed", 0.15, "a track faster than this is moving, slower is static", "m/s", 0.0,
+              10.0),
+    ParamSpec("tracking.max_tracks", 64, "tracks kept at once (the oldest tentative ones give way)", "", 1, 10000),
+)
+
+SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
+                          "initial_speed_std", "moving_speed", "max_tracks"))
+K_GATE = SETTINGS_LAYOUT["gate"]
+K_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
+K_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
+K_ACCELERATION_NOISE = SETTINGS_LAYOUT["acceleration_noise"]
+K_POSITION_NOISE = SETTINGS_LAYOUT["position_noise"]
+K_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
+K_MOVING_SPEED = SETTINGS_LAYOUT["moving_speed"]
+K_MAX_TRACKS = SETTINGS_LAYOUT["max_tracks"]
+N_SETTINGS = len(SETTINGS_LAYOUT)
+
+TRACK_LAYOUT = Layout(("id", "x", "y", "vx", "vy", "radius", "hits", "misses", "confirmed", "moving", "t",
+                       "born"))
+TR_ID = TRACK_LAYOUT["id"]
+TR_X = TRACK_LAYOUT["x"]
+TR_Y = TRACK_LAYOUT["y"]
+TR_VX = TRACK_LAYOUT["vx"]
+TR_VY = TRACK_LAYOUT["vy"]
+TR_RADIUS = TRACK_LAYOUT["radius"]
+TR_HITS = TRACK_LAYOUT["hits"]
+TR_MISSES = TRACK_LAYOUT["misses"]
+TR_CONFIRMED = TRACK_LAYOUT["confirmed"]
+TR_MOVING = TRACK_LAYOUT["moving"]
+TR_T = TRACK_LAYOUT["t"]  # [s] the instant the state is at
+TR_BORN = TRACK_LAYOUT["born"]  # [s]
+N_TRACK = len(TRACK_LAYOUT)
+
+
+def settings_vector(cfg: dict) -> np.ndarray:
+    s = np.zeros(N_SETTINGS)
+    for name in SETTINGS_LAYOUT.names:
+        s[SETTINGS_LAYOUT[name]] = cfg[f"tracking.{name}"]
+    return s
+
+
+def new_tracks(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An empty track table (TRACK_LAYOUT rows) and its covariances (4 x 4 per track)."""
+    capacity = int(s[K_MAX_TRACKS])
+    return np.zeros((capacity, N_TRACK)), np.zeros((capacity, 4, 4))
+
+
+@kernel
+def _predict(s, track, cov, t):
+    """Track and covariance from their instant to t: x += v dt, P = F P F' + Q."""
+    dt = t - track[TR_T]
+    if dt <= 0.0:
+        return
+    track[TR_X] += track[TR_VX] * dt
+    track[TR_Y] += track[TR_VY] * dt
+    track[TR_T] = t
+    f = np.eye(4)
+    f[0, 2] = dt
+    f[1, 3] = dt
+    p = f @ cov @ f.T
+    q = s[K_ACCELERATION_NOISE]
+    for axis in range(2):
+        p[axis, axis] += q * dt ** 3 / 3.0
+        p[axis, axis + 2] += q * dt ** 2 / 2.0
+        p[axis + 2, axis] += q * dt ** 2 / 2.0
+        p[axis + 2, axis + 2] += q * dt
+    cov[:, :] = p
+
+
+@kernel
+def _update(s, track, cov, zx, zy, radius):
+    """The Kalman update on a measured centre (zx, zy) [m]; the radius is smoothed."""
+    r = s[K_POSITION_NOISE] ** 2
+    innovation_cov = cov[:2, :2].copy()
+    innovation_cov[0, 0] += r
+    innovation_cov[1, 1] += r
+    gain = cov[:, :2] @ np.linalg.inv(innovation_cov)
+    ex = zx - track[TR_X]
+    ey = zy - track[TR_Y]
+    for k in range(4):
+        track[TR_X + k] += gain[k, 0] * ex + gain[k, 1] * ey
+    h = np.zeros((2, 4))
+    h[0, 0] = 1.0
+    h[1, 1] = 1.0
+    cov[:, :] = (np.eye(4) - gain @ h) @ cov
+    track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius
+
+
+@kernel
+def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
+    """One scan's discs (detection's rows) at time t [s] into the tracks tracks[:n]; returns the new (n,
+    next_id). Rows move: a dropped track's row takes the last one's."""
+    for j in range(n):
+        _predict(s, tracks[j], cov[j], t)
+    compact = np.empty(n_discs, dtype=np.int64)
+    m = 0
+    for d in range(n_discs):
+        if discs[d, C_WALL] == 0.0:
+            compact[m] = d
+            m += 1
+    cost = np.empty((n, m))
+    for j in range(n):
+        for k in range(m):
+            d = compact[k]
+            cost[j, k] = math.hypot(discs[d, C_X] - tracks[j, TR_X], discs[d, C_Y] - tracks[j, TR_Y])
+    match = np.empty(n, dtype=np.int64)
+    assign(cost, s[K_GATE], match)
+    taken = np.zeros(m, dtype=np.bool_)
+    for j in range(n):
+        k = match[j]
+        if k >= 0:
+            d = compact[k]
+            taken[k] = True
+            _update(s, tracks[j], cov[j], discs[d, C_X], discs[d, C_Y], discs[d, C_RADIUS])
+            tracks[j, TR_HITS] += 1.0
+            tracks[j, TR_MISSES] = 0.0
+            if tracks[j, TR_HITS] >= s[K_CONFIRM_HITS]:
+                tracks[j, TR_CONFIRMED] = 1.0
+        else:
+            tracks[j, TR_MISSES] += 1.0
+        tracks[j, TR_MOVING] = 1.0 if math.hypot(tracks[j, TR_VX], tracks[j, TR_VY]) > s[K_MOVING_SPEED] else 0.0
+    j = 0
+    while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses
+        limit = s[K_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
+        if tracks[j, TR_MISSES] > limit:
+            n -= 1
+            tracks[j, :] = tracks[n, :]
+            cov[j, :, :] = cov[n, :, :]
+        else:
+            j += 1
+    for k in range(m):  # births
+        if taken[k] or n >= tracks.shape[0]:
+            continue
+        d = compact[k]
+        tracks[n, :] = 0.0
+        tracks[n, TR_ID] = next_id
+        tracks[n, TR_X] = discs[d, C_X]
+        tracks[n, TR_Y] = discs[d, C_Y]
+        tracks[n, TR_RADIUS] = discs[d, C_RADIUS]
+        tracks[n, TR_HITS] = 1.0
+        tracks[n, TR_T] = t
+        tracks[n, TR_BORN] = t
+        tracks[n, TR_CONFIRMED] = 1.0 if s[K_CONFIRM_HITS] <= 1.0 else 0.0
+        cov[n, :, :] = 0.0
+        cov[n, 0, 0] = cov[n, 1, 1] = s[K_POSITION_NOISE] ** 2
+        cov[n, 2, 2] = cov[n, 3, 3] = s[K_INITIAL_SPEED_STD] ** 2
+        next_id += 1
+        n += 1
+    return n, next_id
