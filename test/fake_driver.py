@@ -1,7 +1,11 @@
 """A robot driver that is not sim_node, for the conformance and drop-in tests: wall-clock stepping of the
 dynamics core at 200 Hz, stamped with the node's clock, with one deliberate fault if asked.
 
-    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped] [--burst N]
+    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped|scan_nan|scan_unlinked]
+                               [--burst N]
+
+It also has a 2D LiDAR (scan at 10 Hz, base_link -> laser on /tf_static); scan_nan reports its misses as NaN
+instead of REP 117's +inf, scan_unlinked leaves the laser frame out of the transform tree.
 
 --burst N publishes the samples in groups of N, each stamped at its own instant (a driver whose bus
 delivers several samples at once): a correct driver, whose rate the checker must still measure.
@@ -17,7 +21,8 @@ from geometry_msgs.msg import Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, LaserScan
+from tf2_msgs.msg import TFMessage
 
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.params import defaults
@@ -25,9 +30,10 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, to_stamp
 from twbr_msgs.msg import WheelTorques
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import robot_params
+from twbr_sim.scan_messages import TF_STATIC_QOS, laser_scan, laser_transform
 from twbr_sim.simulator import SIM_SPECS, Simulator
 
-FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped")
+FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped", "scan_nan", "scan_unlinked")
 
 
 class FakeDriver(Node):
@@ -40,6 +46,13 @@ class FakeDriver(Node):
         imu_type = Vector3Stamped if fault == "wrong_type" else Imu
         self.pub_imu = None if fault == "missing_imu" else self.create_publisher(imu_type, "imu", SENSOR_PUB_QOS)
         self.pub_joints = self.create_publisher(JointState, "joint_states", SENSOR_PUB_QOS)
+        self.cfg = cfg
+        self.pub_scan = self.create_publisher(LaserScan, "scan", SENSOR_PUB_QOS)
+        self._samples_per_scan = round(cfg["publish_rate"] / cfg["lidar.rate"])
+        self._samples = 0
+        if fault != "scan_unlinked":
+            self.pub_static = self.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
+            self.pub_static.publish(TFMessage(transforms=[laser_transform(cfg, "base_link", to_stamp(0))]))
         self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
         # A sample clock, as a driver's hardware has: each sample stamped at its own instant, and samples a
         # loaded host made late are published late, not skipped (an rclpy timer skips missed periods).
@@ -91,6 +104,12 @@ class FakeDriver(Node):
         joints.velocity = list(self.sim.wheel_rates())
         joints.effort = list(self.sim.wheel_torques())
         self.pub_joints.publish(joints)
+        if self._samples % self._samples_per_scan == 0:
+            ranges = self.sim.scan()
+            if self.fault == "scan_nan":
+                ranges[~(ranges < 1e30)] = float("nan")  # misses as NaN: what REP 117 forbids
+            self.pub_scan.publish(laser_scan(self.cfg, ranges, stamp))
+        self._samples += 1
 
 
 def main() -> int:

@@ -33,8 +33,9 @@ def test_sim_node_passes_every_check(launch, ros_env):
     done = check_driver(ros_env)
     assert done.returncode == 0, done.stdout + done.stderr
     lines = [line for line in done.stdout.splitlines() if line.startswith(("PASS", "FAIL"))]
-    assert len(lines) == 18 and all(line.startswith("PASS") for line in lines)
-    assert "18 of 18 checks passed" in done.stdout
+    assert len(lines) == 24 and all(line.startswith("PASS") for line in lines)
+    assert "24 of 24 checks passed" in done.stdout
+    assert "PASS  scan rate: 10.0 Hz" in done.stdout and "PASS  scan frame: laser <- base_link" in done.stdout
     assert "PASS  imu kind: orientation reported" in done.stdout
 
 
@@ -43,8 +44,17 @@ def test_a_raw_imu_driver_passes_and_is_named(launch, ros_env):
     launch("twbr_sim", "sim_node", params=("robot.yaml", "sim.yaml", "sensors_realistic.yaml"))
     done = check_driver(ros_env)
     assert done.returncode == 0, done.stdout + done.stderr
-    assert "18 of 18 checks passed" in done.stdout
+    assert "24 of 24 checks passed" in done.stdout
     assert "PASS  imu kind: raw" in done.stdout
+
+
+def test_a_driver_without_a_lidar_fails_the_scan_unless_told(launch, ros_env):
+    launch("twbr_sim", "sim_node", "-p", "lidar.rate:=0.0", params=("robot.yaml", "sim.yaml"))
+    done = check_driver(ros_env, "--no-scan")  # first: the check's torque pulse leaves the robot fallen
+    assert done.returncode == 0 and "18 of 18 checks passed" in done.stdout, done.stdout + done.stderr
+    assert "scan" not in done.stdout
+    done = check_driver(ros_env, "--timeout", "5")
+    assert done.returncode == 1 and "FAIL  scan type: no publisher of scan" in done.stdout, done.stdout
 
 
 BROKEN = [
@@ -52,6 +62,8 @@ BROKEN = [
     ("missing_imu", "FAIL  imu type: no publisher of imu"),
     ("pitch_sign", "FAIL  pitch sign vs odometry"),
     ("unstamped", "FAIL  odom stamps"),
+    ("scan_nan", "FAIL  scan fields: scan 0: "),
+    ("scan_unlinked", "FAIL  scan frame: 'laser' is not linked to base_link"),
 ]
 
 

@@ -16,4 +16,9 @@ setup(
     maintainer_email="maintainers@twbr.dev",
     description="Obstacles from a 2D LiDAR: segmentation, disc fitting, association, Kalman tracks.",
     license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "tracker_node = twbr_tracker.tracker_node:main",
+        ],
+    },
 )

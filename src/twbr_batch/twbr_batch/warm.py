@@ -3,8 +3,8 @@ build, so the first `make montecarlo`, `make suite` or `make demo` loads kernels
 (~110 s for the batch engine's, ~30 s for the nodes' on 2 cores).
 
 Two jobs, one process each (numba compiles on one core): `batch` (the batch engine and the suite's
-avoidability check) and `nodes` (the simulator's, world's, planner's and controller's scalar cores through
-the headless closed loop, as their nodes call them). The kernels land in twbr_common.jit's cache, filed by
+avoidability check) and `nodes` (the tracker's, and the simulator's, world's, planner's and controller's
+scalar cores through the headless closed loop, as their nodes call them). The kernels land in twbr_common.jit's cache, filed by
 package: compiled here from the checkout's src/, they are the ones the installed packages load. A job whose
 kernels are cached only loads them (~2 s).
 """
@@ -33,10 +33,13 @@ def warm_batch() -> None:
 
 def warm_nodes() -> None:
     from twbr_batch.closed_loop import planner_reference, run_closed_loop
+    from twbr_common.params import defaults
     from twbr_control.cascade import CONTROLLERS
     from twbr_sim.scenario import load_scenario
     from twbr_sim.scenario_files import find_scenario
+    from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
+    Tracker(defaults(TRACKER_SPECS)).warm_up()
     scenario = load_scenario(find_scenario(SCENARIO))
     for controller in CONTROLLERS:
         run_closed_loop(0.2, planner_reference(control={"controller": controller}), scenario=scenario, seed=1,

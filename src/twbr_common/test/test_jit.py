@@ -39,8 +39,10 @@ def test_kernels_are_cached_under_the_digest_of_the_installed_packages():
     import twbr_planner
     import twbr_runner
     import twbr_sim
+    import twbr_tracker
 
-    dirs = [Path(d) for m in (twbr_common, twbr_sim, twbr_control, twbr_planner, twbr_runner) for d in m.__path__]
+    dirs = [Path(d) for m in (twbr_common, twbr_sim, twbr_control, twbr_planner, twbr_runner, twbr_tracker)
+            for d in m.__path__]
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     assert Path(numba.config.CACHE_DIR) == base / "twbr" / "numba" / jit.source_digest(dirs)
     from twbr_control import pid

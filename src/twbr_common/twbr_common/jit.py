@@ -45,7 +45,7 @@ def jit_mode() -> str:
     return env_choice(ENV, CHOICES, "on")
 
 
-PACKAGES = ("twbr_common", "twbr_sim", "twbr_control", "twbr_planner", "twbr_runner")
+PACKAGES = ("twbr_common", "twbr_sim", "twbr_control", "twbr_planner", "twbr_runner", "twbr_tracker")
 
 
 def source_digest(package_dirs: Iterable[Path]) -> str:

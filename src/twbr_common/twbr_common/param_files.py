@@ -19,7 +19,7 @@ from twbr_common.params import ConfigError, closest_name
 
 # The nodes of the twbr graph: a section keyed close to one of these is a typo, not another package's node.
 KNOWN_NODES = ("sim_node", "controller_node", "planner_node", "world_node", "command_player", "torque_driver",
-               "mujoco_driver", "viewer")
+               "mujoco_driver", "viewer", "tracker_node")
 # Parameters a node may receive without declaring them itself (rclpy's own, and QoS overrides).
 IMPLICIT_PREFIXES = ("qos_overrides.",)
 # Parameters rclpy declares itself, in Node.__init__, before any of ours: a value of the wrong type there

@@ -6,12 +6,15 @@ import numpy as np
 import pytest
 
 from twbr_runner.conformance import (
+    ScanSample,
     check_frames,
     check_imu_kind,
     check_pitch_sign,
     check_qos,
     check_rate,
     check_response,
+    check_scan_fields,
+    check_scan_frame,
     check_stamps,
     check_type,
 )
@@ -85,3 +88,32 @@ def test_pitch_sign_and_response():
     assert "did not speed up" in check_pitch_sign(0.0, 0.0, 0.0, -0.045, 1.0).detail
     assert check_response(0.0, 1.0, 1.0).passed
     assert not check_response(0.0, 0.18, 1.0).passed
+
+
+def scan_sample(ranges, angle_max=None, range_min=0.15, range_max=12.0) -> ScanSample:
+    n = len(ranges)
+    inc = 2 * np.pi / n
+    return ScanSample("laser", -np.pi, -np.pi + (n - 1) * inc if angle_max is None else angle_max, inc,
+                      range_min, range_max, tuple(ranges))
+
+
+def test_a_rep_117_scan_passes_and_each_broken_field_is_named():
+    good = [np.inf] * 300 + [2.5] * 50 + [-np.inf] * 10
+    check = check_scan_fields([scan_sample(good)])
+    assert check.passed and check.detail.startswith("360 beams") and "50 returns" in check.detail
+    nan = check_scan_fields([scan_sample(good), scan_sample([np.nan, *good[1:]])])
+    assert not nan.passed and "scan 1: 1 NaN" in nan.detail
+    zero = check_scan_fields([scan_sample([0.0, *good[1:]])])  # a miss reported as 0 m: below range_min
+    assert not zero.passed and "1 finite range(s) outside" in zero.detail
+    assert "angle_max" in check_scan_fields([scan_sample(good, angle_max=np.pi + 0.1)]).detail
+    assert not check_scan_fields([scan_sample(good, range_min=12.0, range_max=0.15)]).passed
+    assert not check_scan_fields([]).passed
+
+
+def test_the_scan_frame_must_reach_base_link_through_the_transform_tree():
+    assert check_scan_frame({"laser"}, {("base_link", "laser"), ("odom", "base_link")}).passed
+    chained = check_scan_frame({"laser"}, {("base_link", "mast"), ("mast", "laser")})
+    assert chained.passed and chained.detail == "laser <- mast <- base_link"
+    assert not check_scan_frame({"laser"}, {("odom", "base_link")}).passed
+    assert not check_scan_frame({"laser"}, {("laser", "mast"), ("mast", "laser")}).passed  # a loop ends
+    assert not check_scan_frame({"laser", "lidar"}, {("base_link", "laser")}).passed

@@ -1,6 +1,6 @@
 """check_driver: checks a running robot driver against the interface contract (docs/interfaces.md).
 
-    ros2 run twbr_runner check_driver [--rate 200] [--tolerance 0.2] [--torque 1.0]
+    ros2 run twbr_runner check_driver [--rate 200] [--tolerance 0.2] [--torque 1.0] [--scan-rate 10 | --no-scan]
 
 Run it beside the driver alone (no controller): it answers every odom with a wheel_torque_cmd stamped
 with that state (zero torque, which also steps a lockstep simulator), then applies a short forward torque
@@ -22,7 +22,8 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import QoSCompatibility, QoSProfile, ReliabilityPolicy, qos_check_compatible
 from rclpy.utilities import remove_ros_args
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, LaserScan
+from tf2_msgs.msg import TFMessage
 
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.params import default_of
@@ -30,17 +31,23 @@ from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, stamp_seconds
 from twbr_msgs.msg import WheelTorques
 from twbr_runner.conformance import (
     COMMAND_TOPIC,
+    SCAN_TOPIC,
     SENSOR_TOPICS,
     Check,
+    ScanSample,
     check_frames,
     check_imu_kind,
     check_pitch_sign,
     check_qos,
     check_rate,
     check_response,
+    check_scan_fields,
+    check_scan_frame,
     check_stamps,
     check_type,
 )
+from twbr_sim.lidar import LIDAR_SPECS
+from twbr_sim.scan_messages import TF_STATIC_QOS
 from twbr_sim.simulator import SIM_SPECS
 
 # What the checker listens with: best effort, as our nodes' SENSOR_SUB_QOS (so it matches every driver
@@ -51,8 +58,11 @@ LISTEN_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 class DriverChecker(Node):
-    def __init__(self) -> None:
+    def __init__(self, scan: bool) -> None:
         super().__init__("check_driver")
+        self.scan = scan  # the driver has a 2D LiDAR on `scan` (docs/interfaces.md)
+        self.scans: list[ScanSample] = []
+        self.links: set[tuple[str, str]] = set()
         self.stamps: dict[str, list[float]] = defaultdict(list)
         self.odom_frames: set[tuple[str, str]] = set()
         self.imu_frames: set[str] = set()
@@ -67,7 +77,7 @@ class DriverChecker(Node):
     def graph_checks(self) -> list[Check]:
         checks = []
         names = dict(self.get_topic_names_and_types())
-        for topic, expected in SENSOR_TOPICS.items():
+        for topic, expected in self.sensor_topics().items():
             full = self.resolve_topic_name(topic)
             publishers = self.get_publishers_info_by_topic(full)
             checks.append(check_type(topic, expected, sorted(set(names.get(full, []))) if publishers else [],
@@ -83,10 +93,25 @@ class DriverChecker(Node):
         checks.append(check_qos(topic, [_compatible(mine, s.qos_profile) for s in subscribers]))
         return checks
 
+    def sensor_topics(self) -> dict[str, str]:
+        return {**SENSOR_TOPICS, **(dict([SCAN_TOPIC]) if self.scan else {})}
+
     def listen(self) -> None:
         self.create_subscription(Odometry, "odom", self._on_odom, LISTEN_QOS)
         self.create_subscription(Imu, "imu", self._on_imu, LISTEN_QOS)
         self.create_subscription(JointState, "joint_states", self._on_joints, LISTEN_QOS)
+        if self.scan:
+            self.create_subscription(LaserScan, SCAN_TOPIC[0], self._on_scan, LISTEN_QOS)
+            self.create_subscription(TFMessage, "/tf_static", self._on_tf, TF_STATIC_QOS)
+            self.create_subscription(TFMessage, "/tf", self._on_tf, LISTEN_QOS)
+
+    def _on_scan(self, msg: LaserScan) -> None:
+        self.stamps[SCAN_TOPIC[0]].append(stamp_seconds(msg.header.stamp))
+        self.scans.append(ScanSample(msg.header.frame_id, msg.angle_min, msg.angle_max, msg.angle_increment,
+                                     msg.range_min, msg.range_max, tuple(msg.ranges)))
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        self.links.update((t.header.frame_id, t.child_frame_id) for t in msg.transforms)
 
     def _on_odom(self, msg: Odometry) -> None:
         self.stamps["odom"].append(stamp_seconds(msg.header.stamp))
@@ -132,7 +157,7 @@ def spin_until(node: Node, condition, timeout: float) -> bool:
 
 def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
     # The driver's endpoints, as the graph shows them.
-    spin_until(node, lambda: all(node.count_publishers(t) for t in SENSOR_TOPICS)
+    spin_until(node, lambda: all(node.count_publishers(t) for t in node.sensor_topics())
                and node.count_subscribers(COMMAND_TOPIC[0]), args.timeout)
     time.sleep(0.2)
     checks = node.graph_checks()
@@ -147,6 +172,12 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
         checks.append(check_rate(topic, node.stamps[topic], args.rate, args.tolerance))
     checks.append(check_frames(node.odom_frames, node.imu_frames, node.joint_names))
     checks.append(check_imu_kind(node.imu_kinds))
+    if node.scan:
+        scan = SCAN_TOPIC[0]
+        checks.append(check_stamps(scan, node.stamps[scan]))
+        checks.append(check_rate(scan, node.stamps[scan], args.scan_rate, args.tolerance))
+        checks.append(check_scan_fields(node.scans))
+        checks.append(check_scan_frame({s.frame for s in node.scans}, node.links))
     # Active: a short forward torque pulse, then zero torque again.
     effort_before = mean(node.efforts[-20:]) if node.efforts else 0.0
     v0, p0 = node.last_speed, node.last_pitch
@@ -174,9 +205,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pulse", type=float, default=0.1, help="length of the torque pulse, driver seconds (longer"
                     " than the driver's command latency: its response is judged on the pulse's second half)")
     ap.add_argument("--timeout", type=float, default=15.0, help="wall seconds to wait for the driver")
+    ap.add_argument("--scan-rate", type=float, default=default_of(LIDAR_SPECS, "lidar.rate"),
+                    help="expected rate of scan [Hz]")
+    ap.add_argument("--no-scan", action="store_true", help="the driver has no 2D LiDAR: skip the scan checks")
     args = ap.parse_args(remove_ros_args(argv)[1:])
     rclpy.init(args=argv)
-    node = DriverChecker()
+    node = DriverChecker(scan=not args.no_scan)
     try:
         checks = run_checks(node, args)
     finally:

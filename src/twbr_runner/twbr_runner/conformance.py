@@ -7,6 +7,7 @@ command, then these functions judge it. Each returns a Check: a name, pass/fail 
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -19,6 +20,20 @@ SENSOR_TOPICS = {
     "joint_states": "sensor_msgs/msg/JointState",
 }
 COMMAND_TOPIC = ("wheel_torque_cmd", "twbr_msgs/msg/WheelTorques")
+SCAN_TOPIC = ("scan", "sensor_msgs/msg/LaserScan")
+
+
+@dataclass(frozen=True)
+class ScanSample:
+    """What the scan checks read of one sensor_msgs/LaserScan."""
+
+    frame: str
+    angle_min: float
+    angle_max: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    ranges: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -126,3 +141,56 @@ def check_response(effort_before: float, effort_during: float, torque: float) ->
     ok = effort_during > 0.5 * torque and effort_during > effort_before
     return Check("response to wheel_torque_cmd", ok,
                  f"mean wheel effort {effort_before:+.3f} -> {effort_during:+.3f} N·m for +{torque:g} N·m commanded")
+
+
+def check_scan_fields(scans: Sequence[ScanSample]) -> Check:
+    """Each scan's angles agree with its number of ranges, its limits are ordered, and its ranges follow
+    REP 117: a measurement within [range_min, range_max], +inf for no return, -inf for too close, NaN only
+    for an erroneous reading (counted here: a driver that reports misses as NaN or 0 loses its free space)."""
+    name = "scan fields"
+    if not scans:
+        return Check(name, False, "no scan received")
+    problems: list[str] = []
+    for k, s in enumerate(scans):
+        n = len(s.ranges)
+        if n == 0:
+            problems.append(f"scan {k}: no ranges")
+            continue
+        spanned = s.angle_min + (n - 1) * s.angle_increment
+        if abs(spanned - s.angle_max) > max(1e-4, 0.5 * abs(s.angle_increment)):
+            problems.append(f"scan {k}: angle_max {s.angle_max:.4f} rad, but angle_min + ({n} - 1) x"
+                            f" angle_increment = {spanned:.4f} rad")
+        if not 0.0 <= s.range_min < s.range_max:
+            problems.append(f"scan {k}: range_min {s.range_min:g} m, range_max {s.range_max:g} m")
+        nan = sum(1 for r in s.ranges if math.isnan(r))
+        outside = sum(1 for r in s.ranges if math.isfinite(r) and not s.range_min <= r <= s.range_max)
+        if nan or outside:
+            problems.append(f"scan {k}: {nan} NaN and {outside} finite range(s) outside [range_min, range_max]"
+                            " (REP 117: +inf no return, -inf too close)")
+        if problems:
+            break
+    if problems:
+        return Check(name, False, "; ".join(problems))
+    s = scans[-1]
+    returns = sum(1 for r in s.ranges if math.isfinite(r))
+    return Check(name, True, f"{len(s.ranges)} beams, {math.degrees(s.angle_min):.0f} to"
+                 f" {math.degrees(s.angle_max):.0f} degrees, {s.range_min:g}-{s.range_max:g} m; {returns} returns in"
+                 " the last scan, the rest REP 117 infinities")
+
+
+def check_scan_frame(frames: set[str], links: set[tuple[str, str]]) -> Check:
+    """The scan's frame is one, and the transform tree (/tf_static or /tf) links it to base_link, directly
+    or through other frames, as RViz and a tracker need to place its points."""
+    name = "scan frame"
+    if len(frames) != 1:
+        return Check(name, False, f"frames {sorted(frames)} (expected one)")
+    (frame,) = frames
+    parents = {child: parent for parent, child in links}
+    seen, at = [frame], frame
+    while at in parents and at not in seen[:-1]:
+        at = parents[at]
+        seen.append(at)
+        if at == BASE_FRAME:
+            return Check(name, True, " <- ".join(seen))
+    return Check(name, False, f"{frame!r} is not linked to {BASE_FRAME} by /tf_static or /tf"
+                 f" (transforms seen: {sorted(links) or 'none'})")

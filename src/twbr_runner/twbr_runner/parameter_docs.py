@@ -23,6 +23,7 @@ from twbr_sim.robot_params import ROBOT_SPECS
 from twbr_sim.simulator import SIM_SPECS
 from twbr_sim.torque_driver import DRIVER_SPECS
 from twbr_sim.world_node import WORLD_SPECS
+from twbr_tracker.tracker_node import NODE_SPECS as TRACKER_NODE_SPECS
 from twbr_view.viewer_node import VIEWER_SPECS  # (twbr_view depends on twbr_runner: not declared back)
 
 INTRO = """\
@@ -57,7 +58,7 @@ torque limit just above the holding torque still leaves little to recover with).
 SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
     (
         "Every node (`sim_node`, `world_node`, `controller_node`, `planner_node`, `command_player`, `torque_driver`,"
-        " `mujoco_driver`, `viewer`)",
+        " `mujoco_driver`, `viewer`, `tracker_node`)",
         PROCESS_SPECS,
         "A CPU the process may not use (outside its `taskset` or container) is refused at start-up. Once built,\n"
         "every node also freezes its start-up heap (`gc.freeze`), so a full garbage collection in the loop walks\n"
@@ -74,6 +75,9 @@ SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
      "Besides these, `mujoco_driver` declares every simulator parameter above (the robot's own come from\n"
      "`robot_file`, not from parameters). `traction.friction` is there the friction coefficient of MuJoCo's\n"
      "wheel-ground contact: it decides slip instead of only reporting it."),
+    ("`tracker_node` (package `twbr_tracker`, `config/tracker.yaml`)", (*TRACKER_NODE_SPECS, *INPUT_SPECS),
+     "`axle_height` and `lidar_height` place the scanner as the robot carries it (sim_node's `wheel_radius`\n"
+     "and `lidar.height`)."),
     ("`viewer` (package `twbr_view`)", VIEWER_SPECS,
      "Both servers listen on 127.0.0.1 only. Ports 0 pick free ones; the node prints the URL to open."),
 )
@@ -89,6 +93,7 @@ NODE_PARAMETERS: dict[str, tuple[ParamSpec, ...]] = {
     "torque_driver": (*PROCESS_SPECS, *DRIVER_SPECS),
     "mujoco_driver": (*PROCESS_SPECS, *SIM_SPECS, *MUJOCO_SPECS),
     "viewer": (*PROCESS_SPECS, *VIEWER_SPECS),
+    "tracker_node": (*PROCESS_SPECS, *TRACKER_NODE_SPECS, *INPUT_SPECS),
 }
 RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
 

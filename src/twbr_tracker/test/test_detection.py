@@ -17,19 +17,22 @@ AXLE = 0.10
 HEIGHT = defaults(LIDAR_SPECS)["lidar.height"]
 
 
-def scan_of(discs, x=0.0, y=0.0, yaw=0.0, pitch=0.0) -> np.ndarray:
+STEP = 0.1 / 360  # [s] between beams: one turn per 10 Hz scan
+
+
+def scan_of(discs, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) -> np.ndarray:
     s = lidar_vector(defaults(LIDAR_SPECS))
     positions = np.array([d[:2] for d in discs], dtype=float).reshape(-1, 2)
     radii = np.array([d[2] for d in discs], dtype=float)
     ranges = np.empty(360)
-    cast_scan(s, x, y, yaw, pitch, 0.0, 0.0, AXLE, positions, np.zeros_like(positions), radii, ranges)
+    cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, AXLE, positions, np.zeros_like(positions), radii, ranges)
     return ranges
 
 
-def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0) -> np.ndarray:
+def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) -> np.ndarray:
     out = np.empty((len(ranges), 4))
-    n = detect(settings_vector(defaults(DETECTION_SPECS)), ranges, -math.pi, math.radians(1.0), x, y, yaw, pitch,
-               AXLE, HEIGHT, out)
+    n = detect(settings_vector(defaults(DETECTION_SPECS)), ranges, -math.pi, math.radians(1.0), STEP, x, y, yaw,
+               speed, yaw_rate, pitch, AXLE, HEIGHT, out)
     return out[:n]
 
 
@@ -67,3 +70,15 @@ def test_the_floor_a_leaning_scan_sweeps_is_no_obstacle():
     discs = detected(ranges, pitch=0.12)
     assert len(discs) == 0 or all(math.hypot(d[C_X] - 6.0, d[C_Y]) < 0.1 for d in discs)
     assert len(detected(scan_of([(2.0, 0.0, 0.3)], pitch=0.05), pitch=0.05)) == 1  # nearer than the floor hit
+
+
+def test_a_turning_robot_s_scan_is_deskewed():
+    """Turning at 3 rad/s (and driving at 0.5 m/s), the robot turns 0.3 rad during one scan: the beam that
+    sees a person at 5 m left is taken 0.075 s after the first. Placed at the beam's own pose the person is
+    where they are; placed as if the robot had stood still at the scan's start, ~1 m off."""
+    person = [(0.0, 5.0, 0.3)]
+    ranges = scan_of(person, speed=0.5, yaw_rate=3.0)
+    (disc,) = detected(ranges, speed=0.5, yaw_rate=3.0)
+    assert math.hypot(disc[C_X] - 0.0, disc[C_Y] - 5.0) < 0.06
+    (skewed,) = detected(ranges)
+    assert math.hypot(skewed[C_X] - 0.0, skewed[C_Y] - 5.0) > 0.8

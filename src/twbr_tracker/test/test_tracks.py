@@ -50,7 +50,8 @@ def run(people, seconds: float, noisy: bool = True, seed: int = 1):
         cast_scan(ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE, positions, p[:, 2:4].copy(), p[:, 4].copy(), ranges)
         scan_noise(ls, g, ranges)
         discs = np.empty((360, 4))
-        m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0, 0.0, AXLE, lidar_cfg["lidar.height"], discs)
+        m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.1 / 360, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE,
+                   lidar_cfg["lidar.height"], discs)
         # the scan's beams are spread over its turn: the tracker takes the scan at its middle instant
         n, next_id = track_step(ks, tracks, cov, n, next_id, t, discs, m)
         yield t, tracks[:n][tracks[:n, TR_CONFIRMED] != 0.0].copy(), positions, p[:, 2:4]

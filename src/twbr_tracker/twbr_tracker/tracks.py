@@ -108,7 +108,7 @@ def _update(s, track, cov, zx, zy, radius):
     innovation_cov = cov[:2, :2].copy()
     innovation_cov[0, 0] += r
     innovation_cov[1, 1] += r
-    gain = cov[:, :2] @ np.linalg.inv(innovation_cov)
+    gain = np.ascontiguousarray(cov[:, :2]) @ np.linalg.inv(innovation_cov)
     ex = zx - track[TR_X]
     ey = zy - track[TR_Y]
     for k in range(4):
