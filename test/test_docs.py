@@ -99,3 +99,68 @@ def test_speed_figures_in_the_docs_are_the_table_s():
         for match in pattern.finditer(doc.read_text()):
             value = match.group(1) or match.group(2)
             assert value in shown, f"{doc.name}: {match.group(0)!r} is not in benchmarks/README.md's table"
+
+
+def _result(name: str) -> dict:
+    return json.loads((ROOT / "benchmarks" / "results" / name).read_text())
+
+
+def test_the_readme_s_control_and_success_figures_are_the_studies():
+    """README.md's step response, realistic-sensor settling and 1000-seed success rates are the ones
+    benchmarks/results holds (study_robustness.py, bench_torque.py, study_paper_runs.py)."""
+    text = " ".join((ROOT / "README.md").read_text().split())
+    cells = {(r["controller"], r["sensors"], r["perturbation"]): r for r in _result("robustness.json")["rows"]}
+    nominal, realistic = cells[("pid", "ideal", 0.0)], cells[("pid", "realistic", 0.0)]
+    shipped = _result("bench_torque.json")["rows"]["shipped"]
+    step = re.search(r"settles within 5 % in ([0-9.]+) s, overshoot ([0-9.]+) %, rolls back ([0-9]+) %", text)
+    assert step, "README.md lost its step-response sentence"
+    assert float(step[1]) == round(nominal["settle_median_s"], 2)
+    assert float(step[2]) == round(shipped["step_overshoot_pct"], 1)
+    assert int(step[3]) == round(nominal["rollback_max_pct"])
+    noisy = re.search(r"([0-9]+) % of noise seeds settle within 1.5 s \(median ([0-9.]+) s\)", text)
+    assert noisy and int(noisy[1]) == round(realistic["step_met_pct"])
+    assert float(noisy[2]) == round(realistic["settle_median_s"], 2)
+    success = re.search(r"static ([0-9.]+) %, dynamic target ([0-9.]+) %, dynamic obstacles ([0-9.]+) %; with "
+                        r"masses, inertias and motor constant ±20 % and realistic sensors: ([0-9.]+) / ([0-9.]+) / "
+                        r"([0-9.]+) %", text)
+    assert success, "README.md lost its 1000-seed success sentence"
+    runs = _result("paper_runs.json")["scenarios"]
+    for k, name in enumerate(("static", "dynamic_target", "dynamic_obstacles")):
+        assert float(success[1 + k]) == round(runs[name]["success_pct"]["nominal"], 1), name
+        assert float(success[4 + k]) == round(runs[name]["success_pct"]["perturbed_realistic"], 1), name
+
+
+def test_the_engine_comparison_docs_dynamics_shows_is_the_measured_one():
+    """docs/dynamics.md's sim_node / mujoco_driver table of the paper's runs and the step is
+    benchmarks/results/engines.json (benchmarks/compare_engines.py)."""
+    graph = _result("engines.json")["graph"]
+    text = (ROOT / "docs" / "dynamics.md").read_text()
+    rows = re.findall(r"^\| (static|dynamic_target|dynamic_obstacles)[^|]*\| ([0-9.]+) s, ([0-9.]+) m \| "
+                      r"([0-9.]+) s, ([0-9.]+) m \|$", text, re.M)
+    assert [r[0] for r in rows] == ["static", "dynamic_target", "dynamic_obstacles"]
+    for name, *cells in rows:
+        for engine, (reached, clearance) in zip(("sim", "mujoco"), (cells[:2], cells[2:]), strict=True):
+            run = graph[name][engine]
+            assert float(reached) == round(run["time_to_reach_s"], 2), (name, engine)
+            assert float(clearance) == round(run["min_clearance_m"], 3), (name, engine)
+    step = re.search(r"^\| 0.1 m/s step: settling, overshoot[^|]*\| ([0-9.]+) s, ([0-9.]+) % \| ([0-9.]+) s, "
+                     r"([0-9.]+) % \|$", text, re.M)
+    assert step, "docs/dynamics.md lost its step row"
+    for k, engine in enumerate(("sim", "mujoco")):
+        assert float(step[1 + 2 * k]) == round(graph["step"][engine]["settle_time_s"], 3)
+        assert float(step[2 + 2 * k]) == round(graph["step"][engine]["overshoot_pct"], 2)
+
+
+def test_the_readme_s_people_figures_are_the_study_s():
+    """README.md's success rates among people are benchmarks/results/people.json's (study_people.py)."""
+    text = " ".join((ROOT / "README.md").read_text().split())
+    people = _result("people.json")
+    found = re.search(r"Among people \(issue 35's layouts, ([0-9]+) seeds[^)]*\) it is not there yet: (.*?), where "
+                      r"the dynamic window peer reaches ([0-9.]+) % on clutter_movers", text)
+    assert found, "README.md lost its sentence on the people layouts"
+    assert int(found[1]) == people["runs_per_cell"]
+    pairs = re.findall(r"([a-z_]+) ([0-9.]+) %", found[2])
+    assert len(pairs) >= 4
+    for layout, rate in pairs:
+        assert float(rate) == round(100 * people["layouts"][layout]["robust"]["success_rate"], 1), layout
+    assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
