@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_sim.noise import normal, uniform
@@ -77,6 +77,22 @@ def settings_vector(cfg: dict) -> np.ndarray:
     return s
 
 
+@inline_kernel
+def scanner_at(x, y, yaw, speed, yaw_rate, dt, lean):
+    """The scanner dt [s] into a scan begun at the pose (x, y, yaw) [m, rad], the robot driving at speed
+    [m/s] and yaw_rate [rad/s] (a unicycle over one turn): its position [m], `lean` [m] ahead of the axle
+    (height x sin pitch), and the heading [rad]. The one rule both the scan's cast and the tracker's
+    deskewing follow."""
+    heading = yaw + yaw_rate * dt
+    if yaw_rate != 0.0 and dt > 0.0:
+        px = x + speed / yaw_rate * (math.sin(heading) - math.sin(yaw))
+        py = y - speed / yaw_rate * (math.cos(heading) - math.cos(yaw))
+    else:
+        px = x + speed * dt * math.cos(yaw)
+        py = y + speed * dt * math.sin(yaw)
+    return px + lean * math.cos(heading), py + lean * math.sin(heading), heading
+
+
 @kernel
 def disc_hit(ox, oy, dx, dy, cx, cy, radius):
     """Horizontal distance along the unit direction (dx, dy) from (ox, oy) to the circle of `radius` at
@@ -105,15 +121,7 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
     z = axle_height + height * cos_th  # the scanner above the floor
     for i in range(beams):
         dt = i * s[L_TIME_INCREMENT]
-        heading = yaw + yaw_rate * dt  # the robot at this beam's instant (a unicycle over one turn)
-        if yaw_rate != 0.0 and dt > 0.0:
-            px = x + speed / yaw_rate * (math.sin(heading) - math.sin(yaw))
-            py = y - speed / yaw_rate * (math.cos(heading) - math.cos(yaw))
-        else:
-            px = x + speed * dt * math.cos(yaw)
-            py = y + speed * dt * math.sin(yaw)
-        sx = px + height * sin_th * math.cos(heading)  # the scanner leans ahead of the axle
-        sy = py + height * sin_th * math.sin(heading)
+        sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, height * sin_th)  # at this beam's instant
         bearing = s[L_ANGLE_MIN] + i * s[L_ANGLE_INCREMENT]
         ca = math.cos(bearing)
         sa = math.sin(bearing)

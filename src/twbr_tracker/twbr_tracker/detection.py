@@ -25,6 +25,7 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
+from twbr_sim.lidar import scanner_at
 
 DETECTION_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("detection.floor_margin", 0.05, "a return this close above the floor is the floor", "m", 0.0, 1.0),
@@ -85,18 +86,10 @@ def scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, s
         sa = math.sin(bearing)
         if z - r * ca * sin_th < floor_margin:  # the hit's height above the floor
             continue
-        dt = i * time_increment  # the robot at this beam's instant, as twbr_sim.lidar.cast_scan moves it
-        heading = yaw + yaw_rate * dt
-        if yaw_rate != 0.0 and dt > 0.0:
-            px = x + speed / yaw_rate * (math.sin(heading) - math.sin(yaw))
-            py = y - speed / yaw_rate * (math.cos(heading) - math.cos(yaw))
-        else:
-            px = x + speed * dt * math.cos(yaw)
-            py = y + speed * dt * math.sin(yaw)
+        # the scanner at this beam's instant, as twbr_sim.lidar.cast_scan moves it
+        sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, i * time_increment, height * sin_th)
         c = math.cos(heading)
         sn = math.sin(heading)
-        sx = px + height * sin_th * c
-        sy = py + height * sin_th * sn
         fwd = r * ca * cos_th
         side = r * sa
         points[n, 0] = sx + fwd * c - side * sn
@@ -128,16 +121,20 @@ def segment_points(points, beams, n, scanner_x, scanner_y, gap, gap_per_metre, s
 
 
 @kernel
+def _centroid(points, lo, hi):
+    cx = 0.0
+    cy = 0.0
+    for i in range(lo, hi):
+        cx += points[i, 0]
+        cy += points[i, 1]
+    return cx / (hi - lo), cy / (hi - lo)
+
+
+@kernel
 def _circle_fit(points, lo, hi):
     """Kasa's least-squares circle through points[lo:hi]: (cx, cy, radius), radius inf when degenerate."""
-    mx = 0.0
-    my = 0.0
     k = hi - lo
-    for i in range(lo, hi):
-        mx += points[i, 0]
-        my += points[i, 1]
-    mx /= k
-    my /= k
+    mx, my = _centroid(points, lo, hi)
     suu = suv = svv = suuu = svvv = suvv = svuu = 0.0
     for i in range(lo, hi):
         u = points[i, 0] - mx
@@ -171,13 +168,7 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
             continue
         extent = math.hypot(points[hi - 1, 0] - points[lo, 0], points[hi - 1, 1] - points[lo, 1])
         if extent <= s[D_MAX_DISC_EXTENT]:
-            cx = 0.0
-            cy = 0.0
-            for i in range(lo, hi):
-                cx += points[i, 0]
-                cy += points[i, 1]
-            cx /= hi - lo
-            cy /= hi - lo
+            cx, cy = _centroid(points, lo, hi)
             half = max(0.5 * extent, s[D_MIN_RADIUS])
             fx, fy, fr = (_circle_fit(points, lo, hi) if hi - lo >= 3 else (cx, cy, math.inf))
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
@@ -200,13 +191,7 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
             b = lo + (hi - lo) * (q + 1) // pieces
             if b <= a:
                 continue
-            cx = 0.0
-            cy = 0.0
-            for i in range(a, b):
-                cx += points[i, 0]
-                cy += points[i, 1]
-            cx /= b - a
-            cy /= b - a
+            cx, cy = _centroid(points, a, b)
             reach = 0.0
             for i in range(a, b):
                 reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
