@@ -24,6 +24,11 @@ from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config"
 _domains = itertools.count()
+# The runner as the end-to-end tests start it: the simulator waits up to 5 s of wall time for each command
+# (sim.yaml: 0.5 s), so a test that asserts no lockstep timeout judges the graph, not a host stalled by
+# other work (make e2e-loaded); a node that dies still shows, as a run that takes 5 s per step.
+RUNNER = (sys.executable, "-m", "twbr_runner.runner", "--lockstep-timeout", "5")
+PATIENT_LOCKSTEP = ("-p", "lockstep_timeout:=5.0")  # the same for a sim_node the test starts itself
 
 
 @pytest.fixture

@@ -9,14 +9,13 @@ import os
 import resource
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import psutil
 import pytest
-from conftest import CONFIG, assert_refused_at_start, recorded_file
+from conftest import CONFIG, RUNNER, assert_refused_at_start, recorded_file
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
@@ -36,7 +35,7 @@ TORQUE_LIMIT = 15.0
 def run_scenario(tmp_path, domain: int, *args: str, timeout: float = 240.0) -> subprocess.CompletedProcess:
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     return subprocess.run(
-        [sys.executable, "-m", "twbr_runner.runner", *args, "--out", str(tmp_path), "--domain", str(domain)],
+        [*RUNNER, *args, "--out", str(tmp_path), "--domain", str(domain)],
         env=env, capture_output=True, text=True, timeout=timeout,
     )
 
@@ -144,7 +143,7 @@ def test_step_with_realistic_sensors_the_controller_estimates_pitch(tmp_path, ro
 def test_a_stopped_runner_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domain, signum):
     env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twbr_runner.runner", "dynamic_obstacles", "--out", str(tmp_path), "--domain",
+        [*RUNNER, "dynamic_obstacles", "--out", str(tmp_path), "--domain",
          str(ros_domain), "--no-figures"], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     deadline = time.monotonic() + 60

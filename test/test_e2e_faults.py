@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import contacts_while_driving
+from conftest import RUNNER, contacts_while_driving
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from twbr_msgs.msg import ControllerState, PlannerState, SimStatus, WorldStatus
@@ -57,7 +57,7 @@ def run_beside_injector(tmp_path: Path, env: dict[str, str], *params: str) -> tu
     runs (the runner refuses to start beside one): (exit code, stdout, stderr, what the injector sent)."""
     started = time.monotonic()
     runner = subprocess.Popen(
-        [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
+        [*RUNNER, str(COURSE), "--out", str(tmp_path / "runs"), "--quiet",
          "--no-figures"], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     neighbour = None
     try:
@@ -266,7 +266,7 @@ def test_a_flood_of_large_obstacle_arrays_does_not_change_the_run(tmp_path, ros_
 
 
 def _run_course(out: Path, env: dict[str, str]) -> dict:
-    done = subprocess.run([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(out), "--quiet",
+    done = subprocess.run([*RUNNER, str(COURSE), "--out", str(out), "--quiet",
                            "--no-figures"], env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     (run_dir,) = out.iterdir()

@@ -10,9 +10,9 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 
 import pytest
+from conftest import RUNNER
 
 from twbr_common.ros_io import stamp_ns
 from twbr_runner.bag_reader import read_messages
@@ -29,7 +29,7 @@ PITCH_LIMIT = 0.015  # rad after the first transient (the paper reports about +-
 def run(tmp_path, domain: int, scenario: str, seed: int | None, figures: bool,
         extra: tuple[str, ...] = ()) -> tuple[dict, object]:
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
-    args = [sys.executable, "-m", "twbr_runner.runner", scenario, "--out", str(tmp_path), "--domain", str(domain),
+    args = [*RUNNER, scenario, "--out", str(tmp_path), "--domain", str(domain),
             "--quiet"]
     args += [] if seed is None else ["--seed", str(seed)]
     args += [] if figures else ["--no-figures"]

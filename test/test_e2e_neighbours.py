@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from conftest import RUNNER
 from geometry_msgs.msg import Twist
 
 from twbr_runner.spawn import NodeProcess, node_executable
@@ -30,7 +31,7 @@ def test_a_second_graph_on_the_same_domain_is_reported_and_the_runner_refuses_to
         for topic in ("/clock", "/odom", "/imu"):
             assert ros.spin_until(lambda s=sim, t=topic: reported(s, t), 20.0), sim.output
             assert "ERROR" in reported(sim, topic)[0]
-    done = subprocess.run([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out", str(tmp_path / "runs"),
+    done = subprocess.run([*RUNNER, str(COURSE), "--out", str(tmp_path / "runs"),
                            "--quiet", "--no-figures"], env=ros_env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 1, done.stdout + done.stderr
     refusal = done.stderr.strip().splitlines()
@@ -83,7 +84,7 @@ def test_two_runners_started_together_never_both_measure_a_mixed_graph(ros_env, 
     0.09, 168 lockstep timeouts) and both wrote `reached: false` with no word of the conflict. Now the later
     one refuses, naming the earlier runner; where discovery is too slow for that, a run that sees the other
     graph's publishers ends with exit 1 and `foreign_publishers` in its metrics.json."""
-    argv = [sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--quiet", "--no-figures"]
+    argv = [*RUNNER, str(COURSE), "--quiet", "--no-figures"]
     first = subprocess.Popen([*argv, "--out", str(tmp_path / "a")], env=ros_env, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
     time.sleep(apart)
@@ -115,7 +116,7 @@ def test_two_runners_started_together_never_both_measure_a_mixed_graph(ros_env, 
 def test_another_graph_joining_mid_run_ends_the_run_with_exit_1_and_says_so(ros_env, launch, tmp_path):
     """Where discovery was too slow for the start-up check: a second simulator joins the run's domain while
     it runs. The run ends at once, exit 1, with the other graph named in its output and metrics.json."""
-    runner = subprocess.Popen([sys.executable, "-m", "twbr_runner.runner", str(COURSE), "--out",
+    runner = subprocess.Popen([*RUNNER, str(COURSE), "--out",
                                str(tmp_path / "runs"), "--quiet", "--no-figures"], env=ros_env,
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import after_last_restart, busy_loops, contacts_while_driving
+from conftest import PATIENT_LOCKSTEP, after_last_restart, busy_loops, contacts_while_driving
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
@@ -44,7 +44,7 @@ def test_simulator_killed_and_started_again_the_new_run_reaches_its_target(launc
     controller = launch("twbr_control", "controller_node", params=("controller.yaml",))
     planner = launch("twbr_planner", "planner_node", params=("planner.yaml",))
     sim_args = ("-p", f"scenario:={COURSE}", "-p", "duration:=120.0", "-p", "wait_for_subscribers:=2",
-                "-p", f"lockstep_planner_rate:={planner_rate}")
+                "-p", f"lockstep_planner_rate:={planner_rate}", *PATIENT_LOCKSTEP)
     first = launch("twbr_sim", "sim_node", *sim_args, params=SIM_PARAMS)
     assert ros.spin_until(lambda: states and _t(states[-1]) > 6.0 and states[-1].velocity > 0.2, 60.0), first.output
     os.killpg(first.proc.pid, signal.SIGKILL)  # mid-run, driving, no goodbye

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import CONFIG, assert_refused_at_start
+from conftest import CONFIG, PATIENT_LOCKSTEP, assert_refused_at_start
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -51,7 +51,7 @@ class Recorder:
 def test_published_state_equals_the_core_driven_by_the_same_commands(launch, ros):
     duration = 2.0
     sim = launch("twbr_sim", "sim_node", "-p", f"duration:={duration}", "-p", "scenario:=dynamic_obstacles",
-                 params=SIM_PARAMS)
+                 *PATIENT_LOCKSTEP, params=SIM_PARAMS)
     rec = Recorder(ros, {"imu": Imu, "joint_states": JointState, "sim_status": SimStatus,
                          "/tf": TFMessage, "target": Odometry, "obstacles": ObstacleArray,
                          "world_markers": MarkerArray, "/clock": Clock, "scan": LaserScan})

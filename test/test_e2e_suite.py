@@ -12,10 +12,10 @@ import json
 import math
 import os
 import subprocess
-import sys
 
 import numpy as np
 import pytest
+from conftest import RUNNER
 
 from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, run_batch
 from twbr_batch.suite import TIME_LIMIT
@@ -38,7 +38,7 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
     scenario = load_scenario(scenario_path)
     env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     done = subprocess.run(
-        [sys.executable, "-m", "twbr_runner.runner", str(scenario_path), "--out", str(tmp_path), "--domain",
+        [*RUNNER, str(scenario_path), "--out", str(tmp_path), "--domain",
          str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--quiet", "--no-figures"],
         env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -53,3 +53,14 @@ def test_the_controller_and_planner_run_compiled_unless_the_caller_says_otherwis
     monkeypatch.setenv("TWBR_JIT", "off")  # e.g. to run the graph as the robot's computer would
     nodes = {n.label: n for n in plan(scenario, Path("scenario.yaml"), config_dir(), 1, Path("bag"))}
     assert nodes["controller"].env == nodes["planner"].env == {}
+
+
+def test_the_lockstep_timeout_reaches_the_simulator_only_when_asked():
+    scenario = load_scenario(find_scenario("step"))
+
+    def sim_args(**options) -> list[str]:
+        nodes = plan(scenario, find_scenario("step"), config_dir(), 1, Path("bag"), **options)
+        return next(n for n in nodes if n.label == "sim").ros_args
+
+    assert not any(a.startswith("lockstep_timeout:=") for a in sim_args())
+    assert "lockstep_timeout:=5.0" in sim_args(lockstep_timeout=5.0)

@@ -117,6 +117,7 @@ class RunOptions:
     driver: str = "sim"  # or "mujoco": twbr_mujoco's mujoco_driver as the robot
     video: Path | None = None  # mujoco: the GIF mujoco_driver renders
     view_port: int | None = None  # the live viewer's web port (twbr_view), None: no viewer
+    lockstep_timeout: float | None = None  # [s] wall; None: sim.yaml's
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -156,7 +157,8 @@ def robot_node(driver: str, config: Path, sensors: str, video: Path | None = Non
 
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
          planner_method: str | None = None, sensors: str = "ideal", driver: str = "sim",
-         video: Path | None = None, view_port: int | None = None) -> list[NodeSpec]:
+         video: Path | None = None, view_port: int | None = None,
+         lockstep_timeout: float | None = None) -> list[NodeSpec]:
     """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
@@ -193,6 +195,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         "-p", "mode:=lockstep",
         "-p", f"wait_for_subscribers:={(3 if planner else 2) + (view_port is not None)}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",
+        *(["-p", f"lockstep_timeout:={float(lockstep_timeout)}"] if lockstep_timeout is not None else []),
     ]))
     return nodes
 
@@ -394,7 +397,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
     nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method, opts.sensors,
-                 opts.driver, opts.video, opts.view_port)
+                 opts.driver, opts.video, opts.view_port, opts.lockstep_timeout)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
@@ -616,11 +619,15 @@ def main(argv: list[str] | None = None) -> int:
                                                " OpenGL: EGL or OSMesa)")
     ap.add_argument("--view", nargs="?", type=int, const=9090, metavar="PORT",
                     help="show the run live in the browser (twbr_view's viewer; web port, default 9090)")
+    ap.add_argument("--lockstep-timeout", type=float, metavar="SECONDS",
+                    help="wall seconds the simulator waits for a command before stepping without it (counted in"
+                         " lockstep_timeouts; default: sim.yaml's 0.5 s). A longer one rides out a host stalled by"
+                         " other work; a dead controller then costs that long per step")
     ap.add_argument("--planner-method", choices=METHODS,
                     help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
-                      a.planner_method, a.sensors, a.driver, a.video, a.view)
+                      a.planner_method, a.sensors, a.driver, a.video, a.view, a.lockstep_timeout)
     try:
         code, _ = run(opts)
     except ConfigError as e:
