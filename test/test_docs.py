@@ -152,7 +152,7 @@ def test_the_engine_comparison_docs_dynamics_shows_is_the_measured_one():
 
 
 def test_the_readme_s_people_figures_are_the_study_s():
-    """README.md's success rates among people are benchmarks/results/people.json's (study_people.py)."""
+    """README.md's success rates among people are benchmarks/results/people.json's (study_suite.py --people)."""
     text = " ".join((ROOT / "README.md").read_text().split())
     people = _result("people.json")
     found = re.search(r"Among people \(issue 35's layouts, ([0-9]+) seeds[^)]*\) it is not there yet: (.*?), where "
@@ -164,3 +164,10 @@ def test_the_readme_s_people_figures_are_the_study_s():
     for layout, rate in pairs:
         assert float(rate) == round(100 * people["layouts"][layout]["robust"]["success_rate"], 1), layout
     assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
+
+
+def test_the_suite_table_docs_planner_shows_is_the_study_s():
+    figures = _figures_module()
+    block = figures.current_block((ROOT / "docs" / "planner.md").read_text(), figures.SUITE_BEGIN, figures.SUITE_END)
+    assert block, "docs/planner.md lost its generated suite table's markers"
+    assert block == figures.render_suite(), "run: tools/run.sh python benchmarks/figures.py --write"

@@ -195,7 +195,9 @@ def check_overrides(argv: Iterable[str], node_name: str, namespace: str, declare
             if key_matches(key, fqn):
                 applying.append((key, params))
             elif "*" not in last and last not in KNOWN_NODES:
-                guess = closest_name(last, (*KNOWN_NODES, node_name))
+                # a node's name mistyped by a letter or two (contoller_node: 0.97), not another package's
+                # node that shares "_node" with ours (other_package_node ~ tracker_node: 0.73)
+                guess = closest_name(last, (*KNOWN_NODES, node_name), cutoff=0.8)
                 if guess is not None:
                     raise ConfigError(f"params file {path}: section '{key}' names no node; did you mean '{guess}'?")
         if not applying:

@@ -164,9 +164,10 @@ def tunable(*specs: ParamSpec) -> tuple[ParamSpec, ...]:
     return tuple(replace(s, tunable=True) for s in specs)
 
 
-def closest_name(name: str, known: Iterable[str]) -> str | None:
-    """The known name a typo most likely meant, or None when nothing is close."""
+def closest_name(name: str, known: Iterable[str], cutoff: float = 0.6) -> str | None:
+    """The known name a typo most likely meant, or None when nothing is close (difflib's ratio below
+    `cutoff`)."""
     import difflib
 
-    found = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    found = difflib.get_close_matches(name, list(known), n=1, cutoff=cutoff)
     return found[0] if found else None

@@ -48,15 +48,15 @@ SETTINGS_LAYOUT = Layout((
     "angle_min", "angle_increment", "beams", "range_min", "range_max", "height", "time_increment", "noise",
     "dropout",
 ))
-L_ANGLE_MIN = SETTINGS_LAYOUT["angle_min"]
-L_ANGLE_INCREMENT = SETTINGS_LAYOUT["angle_increment"]
-L_BEAMS = SETTINGS_LAYOUT["beams"]
-L_RANGE_MIN = SETTINGS_LAYOUT["range_min"]
-L_RANGE_MAX = SETTINGS_LAYOUT["range_max"]
-L_HEIGHT = SETTINGS_LAYOUT["height"]
-L_TIME_INCREMENT = SETTINGS_LAYOUT["time_increment"]  # [s] between two beams: one turn per scan period
-L_NOISE = SETTINGS_LAYOUT["noise"]
-L_DROPOUT = SETTINGS_LAYOUT["dropout"]
+LD_ANGLE_MIN = SETTINGS_LAYOUT["angle_min"]
+LD_ANGLE_INCREMENT = SETTINGS_LAYOUT["angle_increment"]
+LD_BEAMS = SETTINGS_LAYOUT["beams"]
+LD_RANGE_MIN = SETTINGS_LAYOUT["range_min"]
+LD_RANGE_MAX = SETTINGS_LAYOUT["range_max"]
+LD_HEIGHT = SETTINGS_LAYOUT["height"]
+LD_TIME_INCREMENT = SETTINGS_LAYOUT["time_increment"]  # [s] between two beams: one turn per scan period
+LD_NOISE = SETTINGS_LAYOUT["noise"]
+LD_DROPOUT = SETTINGS_LAYOUT["dropout"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 
@@ -65,15 +65,15 @@ def settings_vector(cfg: dict) -> np.ndarray:
     beams = int(cfg["lidar.beams"])
     rate = float(cfg["lidar.rate"])
     s = np.zeros(N_SETTINGS)
-    s[L_ANGLE_MIN] = cfg["lidar.angle_min"]
-    s[L_ANGLE_INCREMENT] = cfg["lidar.angle_increment"]
-    s[L_BEAMS] = beams
-    s[L_RANGE_MIN] = cfg["lidar.range_min"]
-    s[L_RANGE_MAX] = cfg["lidar.range_max"]
-    s[L_HEIGHT] = cfg["lidar.height"]
-    s[L_TIME_INCREMENT] = 1.0 / (rate * beams) if rate > 0.0 else 0.0
-    s[L_NOISE] = cfg["lidar.range_noise_std"]
-    s[L_DROPOUT] = cfg["lidar.dropout"]
+    s[LD_ANGLE_MIN] = cfg["lidar.angle_min"]
+    s[LD_ANGLE_INCREMENT] = cfg["lidar.angle_increment"]
+    s[LD_BEAMS] = beams
+    s[LD_RANGE_MIN] = cfg["lidar.range_min"]
+    s[LD_RANGE_MAX] = cfg["lidar.range_max"]
+    s[LD_HEIGHT] = cfg["lidar.height"]
+    s[LD_TIME_INCREMENT] = 1.0 / (rate * beams) if rate > 0.0 else 0.0
+    s[LD_NOISE] = cfg["lidar.range_noise_std"]
+    s[LD_DROPOUT] = cfg["lidar.dropout"]
     return s
 
 
@@ -114,15 +114,15 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
     """Noise-free ranges [m] of one scan started at the state (x, y, yaw [rad], pitch [rad], forward speed
     [m/s], yaw rate [rad/s]) with the axle at `axle_height` [m] (the wheel radius), among discs at
     `positions` [m] moving at `velocities` [m/s] with `radii` [m]; REP 117's -inf / +inf outside the range."""
-    beams = int(s[L_BEAMS])
+    beams = int(s[LD_BEAMS])
     sin_th = math.sin(pitch)
     cos_th = math.cos(pitch)
-    height = s[L_HEIGHT]
+    height = s[LD_HEIGHT]
     z = axle_height + height * cos_th  # the scanner above the floor
     for i in range(beams):
-        dt = i * s[L_TIME_INCREMENT]
+        dt = i * s[LD_TIME_INCREMENT]
         sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, height * sin_th)  # at this beam's instant
-        bearing = s[L_ANGLE_MIN] + i * s[L_ANGLE_INCREMENT]
+        bearing = s[LD_ANGLE_MIN] + i * s[LD_ANGLE_INCREMENT]
         ca = math.cos(bearing)
         sa = math.sin(bearing)
         # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
@@ -143,9 +143,9 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
                 t = hit / horizontal  # along the beam, which climbs or sinks as it goes
                 if t < best:
                     best = t
-        if best < s[L_RANGE_MIN]:
+        if best < s[LD_RANGE_MIN]:
             ranges[i] = -math.inf
-        elif best > s[L_RANGE_MAX]:
+        elif best > s[LD_RANGE_MAX]:
             ranges[i] = math.inf
         else:
             ranges[i] = best
@@ -158,8 +158,8 @@ def scan_noise(s, generator, ranges):
     for i in range(ranges.shape[0]):
         if not math.isfinite(ranges[i]):
             continue
-        if s[L_DROPOUT] > 0.0 and uniform(generator) < s[L_DROPOUT]:
+        if s[LD_DROPOUT] > 0.0 and uniform(generator) < s[LD_DROPOUT]:
             ranges[i] = math.inf
             continue
-        if s[L_NOISE] > 0.0:
-            ranges[i] = min(max(ranges[i] + s[L_NOISE] * normal(generator), s[L_RANGE_MIN]), s[L_RANGE_MAX])
+        if s[LD_NOISE] > 0.0:
+            ranges[i] = min(max(ranges[i] + s[LD_NOISE] * normal(generator), s[LD_RANGE_MIN]), s[LD_RANGE_MAX])

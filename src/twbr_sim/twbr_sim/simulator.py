@@ -169,7 +169,7 @@ class Simulator:
         positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
         velocities = np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2)
         radii = np.array([o.radius for o in obstacles], dtype=float)
-        ranges = np.empty(int(self._lidar_s[lidar.L_BEAMS]))
+        ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
         lidar.cast_scan(self._lidar_s, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
                         s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
         lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)

@@ -11,7 +11,7 @@ import pytest
 from twbr_common.params import defaults
 from twbr_sim.lidar import LIDAR_SPECS, cast_scan
 from twbr_sim.lidar import settings_vector as lidar_vector
-from twbr_tracker.detection import C_RADIUS, C_WALL, C_X, C_Y, DETECTION_SPECS, detect, settings_vector
+from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, detect, settings_vector
 
 AXLE = 0.10
 HEIGHT = defaults(LIDAR_SPECS)["lidar.height"]
@@ -41,26 +41,26 @@ def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) 
 def test_a_person_sized_disc_is_found_where_it_is(cx, cy, radius):
     discs = detected(scan_of([(cx, cy, radius)]))
     assert len(discs) == 1
-    assert math.hypot(discs[0, C_X] - cx, discs[0, C_Y] - cy) < 0.06
-    assert discs[0, C_RADIUS] == pytest.approx(radius, abs=0.08) and discs[0, C_WALL] == 0.0
+    assert math.hypot(discs[0, DC_X] - cx, discs[0, DC_Y] - cy) < 0.06
+    assert discs[0, DC_RADIUS] == pytest.approx(radius, abs=0.08) and discs[0, DC_WALL] == 0.0
 
 
 def test_two_people_side_by_side_are_two_and_from_a_moved_robot_the_same():
     people = [(3.0, 0.5, 0.3), (3.0, -0.5, 0.3)]
     here = detected(scan_of(people))
-    assert len(here) == 2 and sorted(np.round(here[:, C_Y], 1)) == [-0.5, 0.5]
+    assert len(here) == 2 and sorted(np.round(here[:, DC_Y], 1)) == [-0.5, 0.5]
     moved = detected(scan_of(people, x=1.0, y=-0.5, yaw=0.4), x=1.0, y=-0.5, yaw=0.4)
     assert len(moved) == 2
     for d in moved:
-        assert min(math.hypot(d[C_X] - p[0], d[C_Y] - p[1]) for p in people) < 0.06
+        assert min(math.hypot(d[DC_X] - p[0], d[DC_Y] - p[1]) for p in people) < 0.06
 
 
 def test_a_wall_is_a_chain_of_discs_along_it():
     wall = [(x, 2.0, 0.1) for x in np.arange(-2.0, 2.01, 0.15)]
     discs = detected(scan_of(wall))
-    assert len(discs) >= 8 and np.all(discs[:, C_WALL] == 1.0)
-    assert np.all(np.abs(discs[:, C_Y] - 1.95) < 0.15)
-    covered = np.sort(discs[:, C_X])
+    assert len(discs) >= 8 and np.all(discs[:, DC_WALL] == 1.0)
+    assert np.all(np.abs(discs[:, DC_Y] - 1.95) < 0.15)
+    covered = np.sort(discs[:, DC_X])
     assert covered[0] < -1.5 and covered[-1] > 1.5 and np.max(np.diff(covered)) < 0.6
 
 
@@ -68,7 +68,7 @@ def test_the_floor_a_leaning_scan_sweeps_is_no_obstacle():
     ranges = scan_of([(6.0, 0.0, 0.3)], pitch=0.12)
     assert np.isfinite(ranges).sum() > 100  # the floor ahead returns on many beams
     discs = detected(ranges, pitch=0.12)
-    assert len(discs) == 0 or all(math.hypot(d[C_X] - 6.0, d[C_Y]) < 0.1 for d in discs)
+    assert len(discs) == 0 or all(math.hypot(d[DC_X] - 6.0, d[DC_Y]) < 0.1 for d in discs)
     assert len(detected(scan_of([(2.0, 0.0, 0.3)], pitch=0.05), pitch=0.05)) == 1  # nearer than the floor hit
 
 
@@ -79,6 +79,6 @@ def test_a_turning_robot_s_scan_is_deskewed():
     person = [(0.0, 5.0, 0.3)]
     ranges = scan_of(person, speed=0.5, yaw_rate=3.0)
     (disc,) = detected(ranges, speed=0.5, yaw_rate=3.0)
-    assert math.hypot(disc[C_X] - 0.0, disc[C_Y] - 5.0) < 0.06
+    assert math.hypot(disc[DC_X] - 0.0, disc[DC_Y] - 5.0) < 0.06
     (skewed,) = detected(ranges)
-    assert math.hypot(skewed[C_X] - 0.0, skewed[C_Y] - 5.0) > 0.8
+    assert math.hypot(skewed[DC_X] - 0.0, skewed[DC_Y] - 5.0) > 0.8

@@ -40,21 +40,21 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
 
 SETTINGS_LAYOUT = Layout(("floor_margin", "gap", "gap_per_metre", "min_points", "max_disc_extent", "min_radius",
                           "chain_spacing"))
-D_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
-D_GAP = SETTINGS_LAYOUT["gap"]
-D_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
-D_MIN_POINTS = SETTINGS_LAYOUT["min_points"]
-D_MAX_DISC_EXTENT = SETTINGS_LAYOUT["max_disc_extent"]
-D_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
-D_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
+DS_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
+DS_GAP = SETTINGS_LAYOUT["gap"]
+DS_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
+DS_MIN_POINTS = SETTINGS_LAYOUT["min_points"]
+DS_MAX_DISC_EXTENT = SETTINGS_LAYOUT["max_disc_extent"]
+DS_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
+DS_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 # One disc: centre [m], radius [m], and whether it is part of a wall's chain (1) or a compact object (0).
 DISC_LAYOUT = Layout(("x", "y", "radius", "wall"))
-C_X = DISC_LAYOUT["x"]
-C_Y = DISC_LAYOUT["y"]
-C_RADIUS = DISC_LAYOUT["radius"]
-C_WALL = DISC_LAYOUT["wall"]
+DC_X = DISC_LAYOUT["x"]
+DC_Y = DISC_LAYOUT["y"]
+DC_RADIUS = DISC_LAYOUT["radius"]
+DC_WALL = DISC_LAYOUT["wall"]
 N_DISC = len(DISC_LAYOUT)
 
 
@@ -164,28 +164,28 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
     for g in range(count):
         lo = starts[g]
         hi = starts[g + 1]
-        if hi - lo < s[D_MIN_POINTS]:
+        if hi - lo < s[DS_MIN_POINTS]:
             continue
         extent = math.hypot(points[hi - 1, 0] - points[lo, 0], points[hi - 1, 1] - points[lo, 1])
-        if extent <= s[D_MAX_DISC_EXTENT]:
+        if extent <= s[DS_MAX_DISC_EXTENT]:
             cx, cy = _centroid(points, lo, hi)
-            half = max(0.5 * extent, s[D_MIN_RADIUS])
+            half = max(0.5 * extent, s[DS_MIN_RADIUS])
             fx, fy, fr = (_circle_fit(points, lo, hi) if hi - lo >= 3 else (cx, cy, math.inf))
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
             if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
                     and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
-                discs[n, C_X] = fx
-                discs[n, C_Y] = fy
-                discs[n, C_RADIUS] = max(fr, s[D_MIN_RADIUS])
+                discs[n, DC_X] = fx
+                discs[n, DC_Y] = fy
+                discs[n, DC_RADIUS] = max(fr, s[DS_MIN_RADIUS])
             else:  # the near side of a disc of the segment's width
                 d = math.hypot(cx - scanner_x, cy - scanner_y)
-                discs[n, C_X] = cx + half * (cx - scanner_x) / d
-                discs[n, C_Y] = cy + half * (cy - scanner_y) / d
-                discs[n, C_RADIUS] = half
-            discs[n, C_WALL] = 0.0
+                discs[n, DC_X] = cx + half * (cx - scanner_x) / d
+                discs[n, DC_Y] = cy + half * (cy - scanner_y) / d
+                discs[n, DC_RADIUS] = half
+            discs[n, DC_WALL] = 0.0
             n += 1
             continue
-        pieces = math.ceil(extent / s[D_CHAIN_SPACING])
+        pieces = math.ceil(extent / s[DS_CHAIN_SPACING])
         for q in range(pieces):  # a chain along the segment, each disc over its share of the points
             a = lo + (hi - lo) * q // pieces
             b = lo + (hi - lo) * (q + 1) // pieces
@@ -195,10 +195,10 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
             reach = 0.0
             for i in range(a, b):
                 reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
-            discs[n, C_X] = cx
-            discs[n, C_Y] = cy
-            discs[n, C_RADIUS] = max(reach, s[D_MIN_RADIUS])
-            discs[n, C_WALL] = 1.0
+            discs[n, DC_X] = cx
+            discs[n, DC_Y] = cy
+            discs[n, DC_RADIUS] = max(reach, s[DS_MIN_RADIUS])
+            discs[n, DC_WALL] = 1.0
             n += 1
     return n
 
@@ -218,9 +218,9 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
             first = i
             break
     n = scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-                    axle_height, height, s[D_FLOOR_MARGIN], first, points, beams)
+                    axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams)
     scanner_x = x + height * math.sin(pitch) * math.cos(yaw)
     scanner_y = y + height * math.sin(pitch) * math.sin(yaw)
     starts = np.empty(n_beams + 1, dtype=np.int64)
-    count = segment_points(points, beams, n, scanner_x, scanner_y, s[D_GAP], s[D_GAP_PER_METRE], starts)
+    count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)
     return fit_discs(s, points, starts, count, scanner_x, scanner_y, discs)

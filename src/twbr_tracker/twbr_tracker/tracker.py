@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twbr_common.params import ParamSpec
-from twbr_tracker.detection import C_RADIUS, C_WALL, C_X, C_Y, DETECTION_SPECS, detect
+from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
@@ -69,8 +69,8 @@ class Tracker:
         self.n, self.next_id = track_step(self._k, self.tracks, self.cov, self.n, self.next_id, t, discs, m)
         out = [TrackedObstacle(int(r[TR_ID]), float(r[TR_X]), float(r[TR_Y]), float(r[TR_VX]), float(r[TR_VY]),
                                float(r[TR_RADIUS])) for r in self.tracks[:self.n] if r[TR_CONFIRMED] != 0.0]
-        walls = [d for d in discs[:m] if d[C_WALL] != 0.0]
-        out += [TrackedObstacle(WALL_IDS + k, float(d[C_X]), float(d[C_Y]), 0.0, 0.0, float(d[C_RADIUS]))
+        walls = [d for d in discs[:m] if d[DC_WALL] != 0.0]
+        out += [TrackedObstacle(WALL_IDS + k, float(d[DC_X]), float(d[DC_Y]), 0.0, 0.0, float(d[DC_RADIUS]))
                 for k, d in enumerate(walls)]
         return out
 

@@ -6,7 +6,7 @@ its first miss), and called moving above `moving_speed`.
 The state is (x, y, vx, vy) in odom [m, m/s]; the motion model is white-noise acceleration of spectral
 density `acceleration_noise` (Bar-Shalom, Li & Kirubarajan 2001, ch. 6: Q for a step dt is
 q [dt^3/3, dt^2/2; dt^2/2, dt] per axis); a disc's centre is measured with std `position_noise`. A wall's
-chain (detection's C_WALL) is not tracked: its discs slide along it as the robot moves, and a tracker would
+chain (detection's DC_WALL) is not tracked: its discs slide along it as the robot moves, and a tracker would
 read that as motion; they pass through as static obstacles.
 """
 
@@ -20,7 +20,7 @@ from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_tracker.assignment import assign
-from twbr_tracker.detection import C_RADIUS, C_WALL, C_X, C_Y
+from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y
 
 TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.gate", 0.8, "a disc farther than this from a track's prediction is not its own", "m",
@@ -39,14 +39,14 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
                           "initial_speed_std", "moving_speed", "max_tracks"))
-K_GATE = SETTINGS_LAYOUT["gate"]
-K_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
-K_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
-K_ACCELERATION_NOISE = SETTINGS_LAYOUT["acceleration_noise"]
-K_POSITION_NOISE = SETTINGS_LAYOUT["position_noise"]
-K_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
-K_MOVING_SPEED = SETTINGS_LAYOUT["moving_speed"]
-K_MAX_TRACKS = SETTINGS_LAYOUT["max_tracks"]
+TS_GATE = SETTINGS_LAYOUT["gate"]
+TS_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
+TS_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
+TS_ACCELERATION_NOISE = SETTINGS_LAYOUT["acceleration_noise"]
+TS_POSITION_NOISE = SETTINGS_LAYOUT["position_noise"]
+TS_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
+TS_MOVING_SPEED = SETTINGS_LAYOUT["moving_speed"]
+TS_MAX_TRACKS = SETTINGS_LAYOUT["max_tracks"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 TRACK_LAYOUT = Layout(("id", "x", "y", "vx", "vy", "radius", "hits", "misses", "confirmed", "moving", "t",
@@ -75,7 +75,7 @@ def settings_vector(cfg: dict) -> np.ndarray:
 
 def new_tracks(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """An empty track table (TRACK_LAYOUT rows) and its covariances (4 x 4 per track)."""
-    capacity = int(s[K_MAX_TRACKS])
+    capacity = int(s[TS_MAX_TRACKS])
     return np.zeros((capacity, N_TRACK)), np.zeros((capacity, 4, 4))
 
 
@@ -92,7 +92,7 @@ def _predict(s, track, cov, t):
     f[0, 2] = dt
     f[1, 3] = dt
     p = f @ cov @ f.T
-    q = s[K_ACCELERATION_NOISE]
+    q = s[TS_ACCELERATION_NOISE]
     for axis in range(2):
         p[axis, axis] += q * dt ** 3 / 3.0
         p[axis, axis + 2] += q * dt ** 2 / 2.0
@@ -104,7 +104,7 @@ def _predict(s, track, cov, t):
 @kernel
 def _update(s, track, cov, zx, zy, radius):
     """The Kalman update on a measured centre (zx, zy) [m]; the radius is smoothed."""
-    r = s[K_POSITION_NOISE] ** 2
+    r = s[TS_POSITION_NOISE] ** 2
     innovation_cov = cov[:2, :2].copy()
     innovation_cov[0, 0] += r
     innovation_cov[1, 1] += r
@@ -129,33 +129,33 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     compact = np.empty(n_discs, dtype=np.int64)
     m = 0
     for d in range(n_discs):
-        if discs[d, C_WALL] == 0.0:
+        if discs[d, DC_WALL] == 0.0:
             compact[m] = d
             m += 1
     cost = np.empty((n, m))
     for j in range(n):
         for k in range(m):
             d = compact[k]
-            cost[j, k] = math.hypot(discs[d, C_X] - tracks[j, TR_X], discs[d, C_Y] - tracks[j, TR_Y])
+            cost[j, k] = math.hypot(discs[d, DC_X] - tracks[j, TR_X], discs[d, DC_Y] - tracks[j, TR_Y])
     match = np.empty(n, dtype=np.int64)
-    assign(cost, s[K_GATE], match)
+    assign(cost, s[TS_GATE], match)
     taken = np.zeros(m, dtype=np.bool_)
     for j in range(n):
         k = match[j]
         if k >= 0:
             d = compact[k]
             taken[k] = True
-            _update(s, tracks[j], cov[j], discs[d, C_X], discs[d, C_Y], discs[d, C_RADIUS])
+            _update(s, tracks[j], cov[j], discs[d, DC_X], discs[d, DC_Y], discs[d, DC_RADIUS])
             tracks[j, TR_HITS] += 1.0
             tracks[j, TR_MISSES] = 0.0
-            if tracks[j, TR_HITS] >= s[K_CONFIRM_HITS]:
+            if tracks[j, TR_HITS] >= s[TS_CONFIRM_HITS]:
                 tracks[j, TR_CONFIRMED] = 1.0
         else:
             tracks[j, TR_MISSES] += 1.0
-        tracks[j, TR_MOVING] = 1.0 if math.hypot(tracks[j, TR_VX], tracks[j, TR_VY]) > s[K_MOVING_SPEED] else 0.0
+        tracks[j, TR_MOVING] = 1.0 if math.hypot(tracks[j, TR_VX], tracks[j, TR_VY]) > s[TS_MOVING_SPEED] else 0.0
     j = 0
     while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses
-        limit = s[K_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
+        limit = s[TS_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
         if tracks[j, TR_MISSES] > limit:
             n -= 1
             tracks[j, :] = tracks[n, :]
@@ -168,16 +168,16 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         d = compact[k]
         tracks[n, :] = 0.0
         tracks[n, TR_ID] = next_id
-        tracks[n, TR_X] = discs[d, C_X]
-        tracks[n, TR_Y] = discs[d, C_Y]
-        tracks[n, TR_RADIUS] = discs[d, C_RADIUS]
+        tracks[n, TR_X] = discs[d, DC_X]
+        tracks[n, TR_Y] = discs[d, DC_Y]
+        tracks[n, TR_RADIUS] = discs[d, DC_RADIUS]
         tracks[n, TR_HITS] = 1.0
         tracks[n, TR_T] = t
         tracks[n, TR_BORN] = t
-        tracks[n, TR_CONFIRMED] = 1.0 if s[K_CONFIRM_HITS] <= 1.0 else 0.0
+        tracks[n, TR_CONFIRMED] = 1.0 if s[TS_CONFIRM_HITS] <= 1.0 else 0.0
         cov[n, :, :] = 0.0
-        cov[n, 0, 0] = cov[n, 1, 1] = s[K_POSITION_NOISE] ** 2
-        cov[n, 2, 2] = cov[n, 3, 3] = s[K_INITIAL_SPEED_STD] ** 2
+        cov[n, 0, 0] = cov[n, 1, 1] = s[TS_POSITION_NOISE] ** 2
+        cov[n, 2, 2] = cov[n, 3, 3] = s[TS_INITIAL_SPEED_STD] ** 2
         next_id += 1
         n += 1
     return n, next_id
