@@ -232,49 +232,34 @@ N_LOOP = len(LOOP_LAYOUT)
 
 
 # Per-robot memories of a batch (rows by robot), one array each, in a tuple read by these names' indices
-# (a named tuple cannot cross into a parallel loop's body in numba): M_LOOP is LOOP_LAYOUT; the cascade's
+# (a named tuple cannot cross into a parallel loop's body in numba): MA_LOOP is LOOP_LAYOUT; the cascade's
 # state and outputs; the planner's memory, progress ring and outputs; the world's tally; the obstacles'
 # positions [m] at the last world instant and distances [m]; whether each obstacle is in range and the robot's
 # state when it came in; the state's derivative, the IMU reading, odom, wheel loads; the estimator's
 # memory, the agents' states and the obstacles' velocities [m/s].
-MEMORIES = (
-    "loop",
-    "control",
-    "control_out",
-    "planner_memory",
-    "ring",
-    "plan_out",
-    "tally",
-    "positions",
-    "distances",
-    "detected",
-    "detected_at",
-    "derivative",
-    "reading",
-    "odometry",
-    "loads",
-    "estimator_memory",
-    "agent_state",
-    "velocities",
-)
-M_LOOP = MEMORIES.index("loop")
-M_CONTROL = MEMORIES.index("control")
-M_CONTROL_OUT = MEMORIES.index("control_out")
-M_PLANNER_MEMORY = MEMORIES.index("planner_memory")
-M_RING = MEMORIES.index("ring")
-M_PLAN_OUT = MEMORIES.index("plan_out")
-M_TALLY = MEMORIES.index("tally")
-M_POSITIONS = MEMORIES.index("positions")
-M_DISTANCES = MEMORIES.index("distances")
-M_DETECTED = MEMORIES.index("detected")
-M_DETECTED_AT = MEMORIES.index("detected_at")
-M_DERIVATIVE = MEMORIES.index("derivative")
-M_READING = MEMORIES.index("reading")
-M_ODOMETRY = MEMORIES.index("odometry")
-M_LOADS = MEMORIES.index("loads")
-M_ESTIMATOR_MEMORY = MEMORIES.index("estimator_memory")
-M_AGENT_STATE = MEMORIES.index("agent_state")
-M_VELOCITIES = MEMORIES.index("velocities")
+MEMORY_ARRAYS_LAYOUT = Layout((
+    "loop", "control", "control_out", "planner_memory", "ring", "plan_out", "tally", "positions", "distances",
+    "detected", "detected_at", "derivative", "reading", "odometry", "loads", "estimator_memory",
+    "agent_state", "velocities",
+))
+MA_LOOP = MEMORY_ARRAYS_LAYOUT["loop"]
+MA_CONTROL = MEMORY_ARRAYS_LAYOUT["control"]
+MA_CONTROL_OUT = MEMORY_ARRAYS_LAYOUT["control_out"]
+MA_PLANNER_MEMORY = MEMORY_ARRAYS_LAYOUT["planner_memory"]
+MA_RING = MEMORY_ARRAYS_LAYOUT["ring"]
+MA_PLAN_OUT = MEMORY_ARRAYS_LAYOUT["plan_out"]
+MA_TALLY = MEMORY_ARRAYS_LAYOUT["tally"]
+MA_POSITIONS = MEMORY_ARRAYS_LAYOUT["positions"]
+MA_DISTANCES = MEMORY_ARRAYS_LAYOUT["distances"]
+MA_DETECTED = MEMORY_ARRAYS_LAYOUT["detected"]
+MA_DETECTED_AT = MEMORY_ARRAYS_LAYOUT["detected_at"]
+MA_DERIVATIVE = MEMORY_ARRAYS_LAYOUT["derivative"]
+MA_READING = MEMORY_ARRAYS_LAYOUT["reading"]
+MA_ODOMETRY = MEMORY_ARRAYS_LAYOUT["odometry"]
+MA_LOADS = MEMORY_ARRAYS_LAYOUT["loads"]
+MA_ESTIMATOR_MEMORY = MEMORY_ARRAYS_LAYOUT["estimator_memory"]
+MA_AGENT_STATE = MEMORY_ARRAYS_LAYOUT["agent_state"]
+MA_VELOCITIES = MEMORY_ARRAYS_LAYOUT["velocities"]
 # What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
 # motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
 # v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
@@ -285,10 +270,8 @@ SENSOR_ARRAYS = ("imu_c", "imu_m", "generators", "encoder_c", "encoder_m", "esti
 
 @kernel
 def new_memories(n, run, n_obstacles):
-    """Per-robot memories for n robots of a run: loop (LOOP_LAYOUT), controller state and outputs, planner
-    memory, progress ring and outputs, world tally, obstacle positions and distances, detection flags and
-    where each obstacle came into range, the state's derivative, the IMU reading, odometry, wheel loads, the
-    estimator's memory, the agents' states (agents.AGENT_STATE_LAYOUT) and the obstacles' velocities."""
+    """Per-robot memories for n robots of a run, in MEMORY_ARRAYS_LAYOUT's order (the agents' states:
+    agents.AGENT_STATE_LAYOUT)."""
     return (
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
@@ -303,20 +286,20 @@ def new_memories(n, run, n_obstacles):
 @kernel
 def robot_begin(j, run, result, memories, imu_c, imu_m, generator, agents):
     """Set robot j of `memories` to the start of a run (its result row holds the running tallies)."""
-    loop, control = memories[M_LOOP], memories[M_CONTROL]
-    agents_begin(agents, memories[M_AGENT_STATE][j])
+    loop, control = memories[MA_LOOP], memories[MA_CONTROL]
+    agents_begin(agents, memories[MA_AGENT_STATE][j])
     loop[j, :] = 0.0
     loop[j, L_WORLD_NEXT] = -math.inf
     loop[j, L_PLAN_NEXT] = -math.inf
     loop[j, L_COMMANDED] = 0.0 if run[U_HAS_TARGET] != 0.0 else 1.0  # a planner's first command applies
     control[j, :] = 0.0                                                # from the second sample
     control[j, K_ENABLED] = 1.0
-    memories[M_PLANNER_MEMORY][j, :] = 0.0
-    memories[M_RING][j] = 0.0
-    memories[M_TALLY][j, :] = 0.0
-    memories[M_DETECTED][j, :] = False
-    memories[M_DETECTED_AT][j] = 0.0
-    memories[M_ESTIMATOR_MEMORY][j, :] = 0.0
+    memories[MA_PLANNER_MEMORY][j, :] = 0.0
+    memories[MA_RING][j] = 0.0
+    memories[MA_TALLY][j, :] = 0.0
+    memories[MA_DETECTED][j, :] = False
+    memories[MA_DETECTED_AT][j] = 0.0
+    memories[MA_ESTIMATOR_MEMORY][j, :] = 0.0
     result[:] = 0.0
     result[Z_REACHED_AT] = math.nan
     result[Z_MIN_CLEARANCE] = math.inf
@@ -354,7 +337,7 @@ def robots_moved(run, results, segments, draws, running, lo, size, fell):
 @inline_kernel
 def robot_end(run, results, memories, j):
     """Robot j's result row from its tallies."""
-    loop, tally = memories[M_LOOP], memories[M_TALLY]
+    loop, tally = memories[MA_LOOP], memories[MA_TALLY]
     sample_time = run[U_STEPS_PER_CONTROL] * run[U_H]
     results[j, Z_COLLISIONS] = tally[j, W_COLLISIONS]
     results[j, Z_LIFTED_TIME] = loop[j, L_LIFTED_SAMPLES] * sample_time
@@ -396,14 +379,14 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     reference count for each, an atomic operation on a counter the two threads share. Rows are taken only
     for the calls that want one (the planner and the world at their rates, the sensors' models, the
     controller); the controller's settings are this call's copy."""
-    loop, control, control_out = memories[M_LOOP], memories[M_CONTROL], memories[M_CONTROL_OUT]
-    memory, ring, plan_out = memories[M_PLANNER_MEMORY], memories[M_RING], memories[M_PLAN_OUT]
-    tally, positions, distances = memories[M_TALLY], memories[M_POSITIONS], memories[M_DISTANCES]
-    velocities, agent_state = memories[M_VELOCITIES], memories[M_AGENT_STATE]
-    detected, detected_at = memories[M_DETECTED], memories[M_DETECTED_AT]
-    derivative, reading = memories[M_DERIVATIVE], memories[M_READING]
-    odometry, loads = memories[M_ODOMETRY], memories[M_LOADS]
-    estimator_m = memories[M_ESTIMATOR_MEMORY]
+    loop, control, control_out = memories[MA_LOOP], memories[MA_CONTROL], memories[MA_CONTROL_OUT]
+    memory, ring, plan_out = memories[MA_PLANNER_MEMORY], memories[MA_RING], memories[MA_PLAN_OUT]
+    tally, positions, distances = memories[MA_TALLY], memories[MA_POSITIONS], memories[MA_DISTANCES]
+    velocities, agent_state = memories[MA_VELOCITIES], memories[MA_AGENT_STATE]
+    detected, detected_at = memories[MA_DETECTED], memories[MA_DETECTED_AT]
+    derivative, reading = memories[MA_DERIVATIVE], memories[MA_READING]
+    odometry, loads = memories[MA_ODOMETRY], memories[MA_LOADS]
+    estimator_m = memories[MA_ESTIMATOR_MEMORY]
     segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
     imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
     h = run[U_H]
@@ -581,7 +564,7 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
     memories = new_memories(n, run, radii.shape[0])
-    loop, derivative, loads = memories[M_LOOP], memories[M_DERIVATIVE], memories[M_LOADS]
+    loop, derivative, loads = memories[MA_LOOP], memories[MA_DERIVATIVE], memories[MA_LOADS]
     world = (segments, agents, waypoints, radii, profile)  # WORLD_ARRAYS
     sensors = (imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q)  # SENSOR_ARRAYS
     friction = run[U_FRICTION]
