@@ -26,11 +26,11 @@ from tf2_msgs.msg import TFMessage
 
 from twbr_common.geometry import quaternion_from_rpy
 from twbr_common.params import defaults
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, to_stamp
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, TF_STATIC_QOS, to_stamp
 from twbr_msgs.msg import WheelTorques
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import robot_params
-from twbr_sim.scan_messages import TF_STATIC_QOS, laser_scan, laser_transform
+from twbr_sim.scan_messages import laser_scan, laser_transform
 from twbr_sim.simulator import SIM_SPECS, Simulator
 
 FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped", "scan_nan", "scan_unlinked")

@@ -17,11 +17,10 @@ from visualization_msgs.msg import MarkerArray
 
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.params import defaults
-from twbr_common.ros_io import stamp_ns, to_stamp
+from twbr_common.ros_io import TF_STATIC_QOS, stamp_ns, to_stamp
 from twbr_msgs.msg import ObstacleArray, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.robot_params import robot_params
-from twbr_sim.scan_messages import TF_STATIC_QOS
 from twbr_sim.scenario import load_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator
 from twbr_sim.world import World

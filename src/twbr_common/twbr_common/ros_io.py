@@ -5,7 +5,7 @@ from __future__ import annotations
 from builtin_interfaces.msg import Time
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 
 # Sensor streams (odom, imu, joint_states) are subscribed best effort: that matches reliable and
 # best-effort publishers alike (real drivers differ). Our publishers of them are reliable, and keep the
@@ -19,6 +19,8 @@ CLOCK_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.R
 # Commands and world topics are reliable.
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 WORLD_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+# /tf_static, as tf2_ros' StaticTransformBroadcaster: a late subscriber still gets the transforms.
+TF_STATIC_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def to_stamp(nanoseconds: int) -> Time:

@@ -27,7 +27,7 @@ from tf2_msgs.msg import TFMessage
 
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.params import default_of
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, stamp_seconds
+from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, TF_STATIC_QOS, stamp_seconds
 from twbr_msgs.msg import WheelTorques
 from twbr_runner.conformance import (
     COMMAND_TOPIC,
@@ -47,7 +47,6 @@ from twbr_runner.conformance import (
     check_type,
 )
 from twbr_sim.lidar import LIDAR_SPECS
-from twbr_sim.scan_messages import TF_STATIC_QOS
 from twbr_sim.simulator import SIM_SPECS
 
 # What the checker listens with: best effort, as our nodes' SENSOR_SUB_QOS (so it matches every driver

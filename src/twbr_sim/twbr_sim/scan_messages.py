@@ -4,11 +4,7 @@ from __future__ import annotations
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import TransformStamped
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
-
-# As tf2_ros' StaticTransformBroadcaster: a late subscriber still gets the transform.
-TF_STATIC_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def laser_scan(cfg: dict, ranges, stamp: Time) -> LaserScan:

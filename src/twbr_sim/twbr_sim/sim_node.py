@@ -29,6 +29,7 @@ from twbr_common.ros_io import (
     CLOCK_PUB_QOS,
     COMMAND_QOS,
     SENSOR_PUB_QOS,
+    TF_STATIC_QOS,
     WORLD_QOS,
     flush_publishers,
     stamp_ns,
@@ -41,7 +42,7 @@ from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
-from twbr_sim.scan_messages import TF_STATIC_QOS, laser_scan, laser_transform
+from twbr_sim.scan_messages import laser_scan, laser_transform
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
