@@ -4,9 +4,9 @@ build, so the first `make montecarlo`, `make suite` or `make demo` loads kernels
 
 Two jobs, one process each (numba compiles on one core): `batch` (the batch engine and the suite's
 avoidability check) and `nodes` (the tracker's, and the simulator's, world's, planner's and controller's
-scalar cores through the headless closed loop, as their nodes call them). The kernels land in twbr_common.jit's cache, filed by
-package: compiled here from the checkout's src/, they are the ones the installed packages load. A job whose
-kernels are cached only loads them (~2 s).
+scalar cores through the headless closed loop, as their nodes call them). The kernels land in
+twbr_common.jit's cache, filed by package: compiled here from the checkout's src/, they are the ones the
+installed packages load. A job whose kernels are cached only loads them (~2 s).
 """
 
 from __future__ import annotations
@@ -22,13 +22,14 @@ SCENARIO = "dynamic_obstacles"  # has a target, a moving one and obstacles: ever
 
 
 def warm_batch() -> None:
-    from twbr_batch.avoidability import Limits, collision_avoidable
+    from twbr_batch.avoidability import collision_avoidable
     from twbr_batch.montecarlo import run_chunk
+    from twbr_batch.suite import robot_limits
+    from twbr_planner.planner_params import resolve
     from twbr_sim.scenario_files import find_scenario
 
     run_chunk(str(find_scenario(SCENARIO)), [1], 0.0, "ideal", "pid", 0.1)
-    limits = Limits(v_max=0.6, acceleration=0.06, braking=0.12, yaw_rate=1.5, yaw_acceleration=1.0)
-    collision_avoidable((0.0, 0.0, 0.0, 0.3, 0.0), (3.0, 0.0, -0.5, 0.0), 0.3, 0.2, limits)
+    collision_avoidable((0.0, 0.0, 0.0, 0.3, 0.0), (3.0, 0.0, -0.5, 0.0), 0.3, 0.2, robot_limits(resolve(None)))
 
 
 def warm_nodes() -> None:

@@ -51,7 +51,6 @@ def test_kernels_are_cached_under_the_digest_of_the_installed_packages():
     assert list(Path(numba.config.CACHE_DIR).rglob("pid.pid_update-*.nbi"))
 
 
-
 KERNEL_MODULE = """
 from twbr_common.jit import kernel
 

@@ -17,7 +17,7 @@ changes in another file: the batch engine would keep running yesterday's control
 in a directory named by a digest of every twbr package's source, under ~/.cache/twbr/numba (or
 $XDG_CACHE_HOME/twbr/numba); NUMBA_CACHE_DIR, when set, wins. Inside it a kernel is filed by its package
 and module, not by the path it was imported from (`PackageCacheLocator`): the kernels compiled at set-up
-from src/ (tools/warm_kernels.py) are the ones the installed packages load, and a `make clean` or a
+from src/ (twbr_batch.warm) are the ones the installed packages load, and a `make clean` or a
 second checkout of the same sources finds them too.
 
 TWBR_JIT=off runs the same kernels as plain Python and never imports numba (whose LLVM is ~60 MiB and

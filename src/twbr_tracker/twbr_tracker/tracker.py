@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from twbr_common.params import ParamSpec
-from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, detect
+from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
@@ -63,7 +63,7 @@ class Tracker:
         """The scan stamped t [s] (its first beam), begun at the pose (x, y, yaw) [m, rad] moving at speed
         [m/s] and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now."""
         ranges = np.ascontiguousarray(ranges, dtype=np.float64)
-        discs = np.empty((len(ranges), 4))
+        discs = np.empty((len(ranges), N_DISC))
         m = detect(self._d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                    self.cfg["axle_height"], self.cfg["lidar_height"], discs)
         self.n, self.next_id = track_step(self._k, self.tracks, self.cov, self.n, self.next_id, t, discs, m)

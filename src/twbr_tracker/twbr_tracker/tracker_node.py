@@ -24,6 +24,7 @@ from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_msgs.msg import ObstacleArray
+from twbr_sim.run_report import LatencyRecord
 from twbr_sim.world_messages import obstacles_message
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
@@ -46,7 +47,7 @@ class TrackerNode(Node):
         self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
         self._pose: tuple[float, ...] | None = None  # stamp, x, y, yaw, speed, yaw rate, pitch
-        self.latencies: list[float] = []  # [s] scan received -> obstacles published
+        self.latencies = LatencyRecord()  # scan received -> obstacles published, in constant memory
         self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_subscription(LaserScan, "scan", self._on_scan, SENSOR_SUB_QOS)
@@ -87,18 +88,17 @@ class TrackerNode(Node):
         obstacles = self.core.step(t, ranges, msg.angle_min, msg.angle_increment, msg.time_increment, x, y, yaw, v, w,
                                    pitch)
         self.pub_obstacles.publish(obstacles_message(obstacles, msg.header.stamp, self.cfg["odom_frame"]))
-        self.latencies.append(time.perf_counter() - received)
+        self.latencies.add(time.perf_counter() - received)
 
     def destroy_node(self) -> None:
         self.get_logger().info(self.report())
         super().destroy_node()
 
     def report(self) -> str:
-        if not self.latencies:
+        if not self.latencies.count:
             return "no scan tracked"
-        ms = 1e3 * np.array(self.latencies)
-        return (f"{len(ms)} scans tracked; scan -> obstacles median {np.median(ms):.2f} ms,"
-                f" p99 {np.percentile(ms, 99):.2f} ms")
+        return (f"{self.latencies.count} scans tracked; scan -> obstacles median"
+                f" {self.latencies.quantile_ms(0.5):.3f} ms, p99 {self.latencies.quantile_ms(0.99):.3f} ms")
 
 
 def main(args: list[str] | None = None) -> int:
