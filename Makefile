@@ -31,9 +31,9 @@ e2e-loaded: setup
 	@TWBR_TEST_BUSY=1 $(RUN) python -m pytest -q -m "e2e and not long"
 
 demo:
-	@$(CHECK) --scenario '$(SCENARIO)'
+	@$(CHECK) --scenario '$(SCENARIO)' --perception '$(PERCEPTION)'
 	@bash tools/bootstrap.sh
-	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER)) $(if $(VIEW),--view)
+	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER)) $(if $(PERCEPTION),--perception $(PERCEPTION)) $(if $(VIEW),--view)
 
 montecarlo:
 	@$(CHECK) --scenario '$(SCENARIO)' --runs '$(N)' --perturb '$(PERTURB)'

@@ -19,13 +19,16 @@ def test_known_scenarios_files_and_numbers_pass(tmp_path):
     mine = tmp_path / "my_lab.yaml"
     mine.write_text("duration: 10\n")
     assert check("--scenario", "dynamic_obstacles", "--runs", "1000", "--perturb", "0.2").returncode == 0
+    assert check("--scenario", "crowd_crossing", "--perception", "lidar").returncode == 0
+    assert check("--scenario", "static", "--perception", "").returncode == 0  # make's unset PERCEPTION
     assert check("--scenarios", f"suite/gap_1m,clutter,{mine}", "--runs", "5").returncode == 0
 
 
 def test_each_bad_argument_is_named():
-    out = check("--scenario", "dynamic_obstacle", "--runs", "0", "--perturb", "1.5")
+    out = check("--scenario", "dynamic_obstacle", "--runs", "0", "--perturb", "1.5", "--perception", "camera")
     assert out.returncode == 2
     assert "'dynamic_obstacle'" in out.stderr and "N='0'" in out.stderr and "PERTURB='1.5'" in out.stderr
+    assert "PERCEPTION='camera'" in out.stderr
     assert check("--scenarios", "clutter,nowhere", "--runs", "ten").stderr.count("\n") == 2
 
 

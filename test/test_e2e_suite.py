@@ -39,7 +39,8 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
     env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     done = subprocess.run(
         [*RUNNER, str(scenario_path), "--out", str(tmp_path), "--domain",
-         str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--quiet", "--no-figures"],
+         str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--perception", "truth", "--quiet",
+         "--no-figures"],
         env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stdout + done.stderr
     (run_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]

@@ -33,7 +33,7 @@ def test_tracks_are_where_the_world_s_obstacles_are(launch, ros):
     ~1 rad/s: every track is on a person, and the people within 4 m are
     tracked (some hide behind others: not all of them)."""
     duration = 6.0
-    tracker = launch("twbr_tracker", "tracker_node", "-p", "use_sim_time:=true", "-r", "obstacles:=tracked",
+    tracker = launch("twbr_tracker", "tracker_node", "-r", "obstacles:=tracked",
                      params=("tracker.yaml",))
     sim = launch("twbr_sim", "sim_node", "-p", f"duration:={duration}", "-p", "scenario:=suite/crowd_crossing",
                  "-p", "wait_for_subscribers:=2", params=("robot.yaml", "sim.yaml"))

@@ -2,7 +2,7 @@
 it runs before .venv exists): a mistyped scenario or a bad count is refused in well under a second instead
 of after a colcon build. The programs check everything again, with the full rules (choices, ranges).
 
-    python3 tools/check_args.py --scenario dynamic_obstacles --runs 1000 --perturb 0.2
+    python3 tools/check_args.py --scenario dynamic_obstacles --runs 1000 --perturb 0.2 --perception lidar
     python3 tools/check_args.py --scenarios suite/gap_1m,my_lab.yaml --runs 100
 """
 
@@ -38,6 +38,8 @@ def problems(args: argparse.Namespace) -> list[str]:
             ok = False
         if not ok:
             found.append(f"PERTURB={args.perturb!r}: a fraction in [0, 1) (0.2 perturbs by up to ±20 %)")
+    if args.perception is not None and args.perception not in ("", "lidar", "truth"):
+        found.append(f"PERCEPTION={args.perception!r}: lidar (tracker_node on the scan) or truth (the world's obstacles)")
     return found
 
 
@@ -47,6 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenarios", help="comma-separated")
     ap.add_argument("--runs")
     ap.add_argument("--perturb")
+    ap.add_argument("--perception")
     found = problems(ap.parse_args(argv))
     for line in found:
         print(f"make: {line}", file=sys.stderr)

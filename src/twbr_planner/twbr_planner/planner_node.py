@@ -8,9 +8,9 @@ before it is read. No plan goes out before the first target and obstacle list (a
 answered the same however long discovery took). Odom, target and obstacles are read in place from their
 bytes (twbr_common.cdr), not deserialized: they arrive together at a planning instant, when the controller
 computes too. A plan at odom stamp t waits (at most world_wait of wall time) for the world of its instant,
-target and obstacles stamped after t - world_period: the world of each planning instant reaches the plan
-even when a loaded machine delivers it after the odom, so a lockstep run is the same on an idle and on a
-busy machine.
+a target stamped after t - world_period and obstacles after t - obstacles_period: the world of each
+planning instant reaches the plan even when a loaded machine delivers it after the odom, so a lockstep run
+is the same on an idle and on a busy machine.
 Obstacles are moved along their velocity to the odom stamp; a target or obstacle list older than
 world_timeout stops the robot.
 """
@@ -162,9 +162,12 @@ class PlannerNode(Node):
 
     # --- planning -----------------------------------------------------------------------------
     def _world_current(self, stamp: float) -> bool:
-        """Target and obstacles of the planning instant `stamp` are in (stamped after stamp - world_period)."""
-        since = stamp - self.cfg["world_period"] + 1e-9
-        return all(sample is not None and sample[0] > since for sample in (self._target, self._obstacles))
+        """Target and obstacles of the planning instant `stamp` are in: stamped after stamp - world_period
+        and stamp - obstacles_period (the world's, or a tracker's scans, slower than the plans)."""
+        cfg = self.cfg
+        return all(sample is not None and sample[0] > stamp - period + 1e-9
+                   for sample, period in ((self._target, cfg["world_period"]),
+                                          (self._obstacles, cfg["obstacles_period"])))
 
     @property
     def _has_world(self) -> bool:

@@ -135,9 +135,12 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("rate", 20.0, "planning rate, in odom stamps", "Hz", 0.1, 1000.0),
     ParamSpec("world_timeout", 0.5, "target or obstacles older than this (against the odom stamp) stop the robot",
               "s", 0.01, 60.0),
-    ParamSpec("world_period", 0.05, "period of the world's publisher (1/world_rate): a plan at stamp t waits"
-              " for a target and obstacles stamped after t - world_period, the world of its instant", "s",
+    ParamSpec("world_period", 0.05, "period of the target's publisher (the world's 1/world_rate): a plan at"
+              " stamp t waits for a target stamped after t - world_period, the target of its instant", "s",
               0.001, 10.0),
+    ParamSpec("obstacles_period", 0.05, "period of the obstacles' publisher: the world's 1/world_rate, or"
+              " tracker_node's scan period (1/lidar.rate); a plan at stamp t waits for obstacles stamped after"
+              " t - obstacles_period", "s", 0.001, 10.0),
     ParamSpec("world_wait", 0.2, "wall time a plan waits for the world of its instant before it plans with"
               " what it has (keep it below the simulator's lockstep_timeout)", "s", 0.0, 10.0),
     ParamSpec("odom_timeout", 0.5, "odom stamped this much before the node's clock is stale and dropped", "s",

@@ -7,7 +7,7 @@ import pytest
 from twbr_common.params import ConfigError
 from twbr_common.paths import config_dir
 from twbr_planner.planner_params import resolve
-from twbr_runner.runner import plan
+from twbr_runner.runner import plan, run_perception
 from twbr_sim.scenario import load_scenario, parse_scenario
 from twbr_sim.scenario_files import find_scenario
 
@@ -64,3 +64,24 @@ def test_the_lockstep_timeout_reaches_the_simulator_only_when_asked():
 
     assert not any(a.startswith("lockstep_timeout:=") for a in sim_args())
     assert "lockstep_timeout:=5.0" in sim_args(lockstep_timeout=5.0)
+
+
+def test_with_the_lidar_the_planner_avoids_what_the_tracker_sees_and_the_truth_is_kept_apart(tmp_path):
+    crowd = load_scenario(find_scenario("suite/crowd_crossing"))
+    assert run_perception(crowd, None) == "lidar"  # every scenario's default
+    assert run_perception(load_scenario(find_scenario("dynamic_obstacles")), None) == "truth"  # the paper pins it
+    assert run_perception(load_scenario(find_scenario("step")), "lidar") == "truth"  # no planner: nothing to see
+    nodes = {n.label: n for n in plan(crowd, Path("scenario.yaml"), config_dir(), 1, Path("bag"), perception="lidar")}
+    assert list(nodes)[-1] == "sim" and nodes["tracker"].executable == "tracker_node"
+    assert "obstacles:=obstacles_truth" in nodes["sim"].ros_args  # the world's own list, for the metrics only
+    assert "obstacles_period:=0.1" in nodes["planner"].ros_args  # a plan at a scan's instant waits for it
+    assert "wait_for_subscribers:=4" in nodes["sim"].ros_args  # recorder, controller, planner and tracker
+    truth = {n.label: n for n in plan(crowd, Path("scenario.yaml"), config_dir(), 1, Path("bag"), perception="truth")}
+    assert "tracker" not in truth and not any("obstacles" in a for a in truth["sim"].ros_args)
+    assert "wait_for_subscribers:=3" in truth["sim"].ros_args
+    # a robot without a LiDAR cannot run on it: refused before anything starts, naming the parameter
+    (tmp_path / "sim.yaml").write_text("/**/sim_node:\n  ros__parameters:\n    lidar.rate: 0.0\n")
+    for name in ("robot.yaml", "planner.yaml", "controller.yaml", "tracker.yaml"):
+        (tmp_path / name).write_text((config_dir() / name).read_text())
+    with pytest.raises(ConfigError, match=r"lidar.rate = 0 in sim.yaml"):
+        plan(crowd, Path("scenario.yaml"), tmp_path, 1, Path("bag"), perception="lidar")

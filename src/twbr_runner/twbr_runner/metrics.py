@@ -32,7 +32,8 @@ CONTROLLER_FIELDS = (
 
 # What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
 MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/ground_truth", "/joint_states", "/sim_status",
-                   "/world_status", "/target", "/obstacles", "/planner_state")
+                   "/world_status", "/target", "/obstacles", "/obstacles_truth", "/planner_state")
+OBSTACLE_TOPICS = ("/obstacles", "/obstacles_truth")  # read from their bytes; the truth's with the LiDAR
 
 
 def stamp_of(msg: Any) -> float:
@@ -59,8 +60,12 @@ class RunSeries:
     world_status: list[Any] = field(default_factory=list)
     target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
-    # (stamp, rows of id, x, y, vx, vy, radius): snapshots of the obstacle list (OBSTACLE_SNAPSHOT_PERIOD)
+    # (stamp, rows of id, x, y, vx, vy, radius): snapshots of the world's obstacle list
+    # (OBSTACLE_SNAPSHOT_PERIOD): `obstacles_truth` where the run had one (the LiDAR's), else `obstacles`
     obstacles: list[tuple[float, np.ndarray]] = field(default_factory=list)
+    # With the LiDAR: every list of both, by stamp, for the tracker's figures (twbr_tracker.evaluation)
+    tracked: dict[float, np.ndarray] = field(default_factory=dict)
+    truth_obstacles: dict[float, np.ndarray] = field(default_factory=dict)
     planner: list[Any] = field(default_factory=list)  # PlannerState messages in stamp order
     counts: dict[str, int] = field(default_factory=dict)
     refused: dict[str, int] = field(default_factory=dict)  # messages no node would accept, by topic
@@ -144,6 +149,9 @@ def _put(rows: list, verdict: str, row: Any) -> None:
 # Obstacle lists kept for the figures: one every this many seconds of sim time, and the last. A recording
 # of 5,000 obstacles 50 times a second would otherwise be held whole (GBs); the metrics read none of them.
 OBSTACLE_SNAPSHOT_PERIOD = 0.25  # [s]
+# Lists kept whole for the tracker's figures: those of a LiDAR run up to this many rows (a world of people
+# and a wall's chain; a flood's 5,000-row arrays are not a tracker's and are left out).
+TRACKED_ROWS_MAX = 500
 _STATUS_TOPICS = ("/sim_status", "/world_status")
 
 
@@ -157,8 +165,8 @@ class SeriesBuilder:
         self.counts: dict[str, int] = {}
         self._admission: dict[str, _Admission] = {}
         self._rows: dict[str, list] = {}
-        self._obstacle_last: tuple[float, list] | None = None
-        self._obstacles: list[tuple[float, list]] = []
+        self._snapshots: dict[str, tuple[list, list]] = {t: ([], []) for t in OBSTACLE_TOPICS}  # kept, last
+        self._whole: dict[str, dict[float, np.ndarray]] = {t: {} for t in OBSTACLE_TOPICS}
 
     def _offer(self, topic: str, t: float, values, received: int) -> str:
         admission = self._admission.get(topic)
@@ -167,10 +175,10 @@ class SeriesBuilder:
         return admission.offer(t, values, self.clock.at(received))
 
     def add(self, topic: str, received: int, msg: Any) -> None:
-        """One message received at `received` [ns]: decoded, or for /obstacles its CDR bytes too."""
+        """One message received at `received` [ns]: decoded, or for the obstacle lists their CDR bytes too."""
         self.counts[topic] = self.counts.get(topic, 0) + 1
-        if topic == "/obstacles":
-            self._add_obstacles(received, msg)
+        if topic in OBSTACLE_TOPICS:
+            self._add_obstacles(topic, received, msg)
             return
         if topic not in _VALUES and topic not in ("/ground_truth",):
             return
@@ -193,20 +201,22 @@ class SeriesBuilder:
             row = msg
         _put(self._rows.setdefault(topic, []), verdict, row)
 
-    def _add_obstacles(self, received: int, msg: Any) -> None:
+    def _add_obstacles(self, topic: str, received: int, msg: Any) -> None:
         read = obstacle_rows(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else obstacle_rows_of(msg)
         if read is None:
             return
         t = read.stamp.sec + read.stamp.nanosec * 1e-9
-        if self._offer("/obstacles", t, read.rows[:, (1, 2, 5)], received) != "new":
+        if self._offer(topic, t, read.rows[:, (1, 2, 5)], received) != "new":
             return
         snapshot = (t, read.rows.copy())
-        kept = self._obstacles[-1][0] if self._obstacles else -math.inf
-        if t >= kept + OBSTACLE_SNAPSHOT_PERIOD - 1e-9:
-            self._obstacles.append(snapshot)
-            self._obstacle_last = None
+        if len(read.rows) <= TRACKED_ROWS_MAX:
+            self._whole[topic][t] = snapshot[1]
+        kept, last = self._snapshots[topic]
+        if t >= (kept[-1][0] if kept else -math.inf) + OBSTACLE_SNAPSHOT_PERIOD - 1e-9:
+            kept.append(snapshot)
+            last.clear()
         else:
-            self._obstacle_last = snapshot
+            last[:] = [snapshot]
 
     def series(self) -> RunSeries:
         s = RunSeries(counts=dict(self.counts))
@@ -231,7 +241,10 @@ class SeriesBuilder:
         s.world_status = self._rows.get("/world_status", [])
         target = np.array(self._rows.get("/target", []), dtype=float).reshape(-1, 3)
         s.target_t, s.target_xy = target[:, 0], target[:, 1:3]
-        s.obstacles = self._obstacles + ([self._obstacle_last] if self._obstacle_last is not None else [])
+        shown = "/obstacles_truth" if self.counts.get("/obstacles_truth") else "/obstacles"
+        s.obstacles = [*self._snapshots[shown][0], *self._snapshots[shown][1]]
+        if shown == "/obstacles_truth":
+            s.tracked, s.truth_obstacles = self._whole["/obstacles"], self._whole["/obstacles_truth"]
         s.planner = self._rows.get("/planner_state", [])
         return s
 
@@ -251,7 +264,7 @@ def series_from_bag(bag_dir: Path, undecodable: Counter | None = None) -> RunSer
     clock = BagClock([(received, msg) for _, received, msg in iter_messages(bag_dir, ["/clock"], undecodable)])
     builder = SeriesBuilder(clock)
     for topic, received, msg in iter_messages(bag_dir, [t for t in MEASURED_TOPICS if t != "/clock"], undecodable,
-                                              raw=("/obstacles",)):
+                                              raw=OBSTACLE_TOPICS):
         builder.add(topic, received, msg)
     builder.counts["/clock"] = len(clock)
     return builder.series()
@@ -288,6 +301,10 @@ class BagSummary:
     path: str
     storage: str
     message_count: int
+
+
+RUNNER_ADDED = ("steps", "navigation", "ended_by", "run_wall_time_s", "bag", "foreign_publishers", "perception",
+                "tracking")
 
 
 @dataclass
@@ -339,15 +356,19 @@ class RunMetrics:
     # Publishers on the run's topics that were none of the run's own nodes (another graph, an injector):
     # the run then measured more than its own graph, and the runner exits 1.
     foreign_publishers: list[str] | None = None
+    # What the planner's obstacles came from ("lidar": tracker_node on the scan; "truth": the world's), and
+    # with the LiDAR the tracker's figures (tracking_metrics, and its scan -> obstacles latency).
+    perception: str | None = None
+    tracking: dict[str, Any] | None = None
 
     def as_json(self) -> dict[str, Any]:
         out = {f.name: getattr(self, f.name) for f in fields(self)
-               if f.name not in ("steps", "navigation", "ended_by", "run_wall_time_s", "bag", "foreign_publishers")}
+               if f.name not in RUNNER_ADDED}
         out.update({name: r.as_dict() if r is not None else None for name, r in self.steps.items()})
         if self.navigation is not None:
             out.update({k: v for k, v in asdict(self.navigation).items()
                         if v is not None or k not in PLANNER_ONLY})
-        for name in ("ended_by", "run_wall_time_s", "bag", "foreign_publishers"):
+        for name in RUNNER_ADDED[2:]:
             value = getattr(self, name)
             if value is not None:
                 out[name] = asdict(value) if name == "bag" else value
@@ -394,6 +415,19 @@ def _pitch_estimate_error(s: RunSeries) -> float | None:
         return None
     truth = np.interp(s.control_t[estimated], s.odom_t, s.pitch)
     return _rms(s.control["pitch"][estimated] - truth)
+
+
+def tracking_metrics(s: RunSeries, range_max: float, period: float) -> dict[str, Any] | None:
+    """The tracker's figures (twbr_tracker.evaluation) at the instants with both a track list and the
+    world's, the robot where ground truth (or odom) had it then; None without a LiDAR run's two lists."""
+    from twbr_tracker.evaluation import evaluate
+
+    stamps = sorted(set(s.tracked) & set(s.truth_obstacles))
+    if not stamps or not len(s.odom_t):
+        return None
+    instants = ((t, s.tracked[t], s.truth_obstacles[t],
+                 (float(np.interp(t, s.odom_t, s.x_c)), float(np.interp(t, s.odom_t, s.y_c)))) for t in stamps)
+    return evaluate(instants, range_max, period=period).as_dict()
 
 
 def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,

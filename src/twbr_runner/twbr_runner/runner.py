@@ -19,6 +19,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -41,12 +42,17 @@ from twbr_runner.animation import run_animation
 from twbr_runner.bag_reader import bag_info
 from twbr_runner.bag_writer import disk_full_text, is_disk_full
 from twbr_runner.figures import potential_figures, response_figures
-from twbr_runner.metrics import BagSummary, RunMetrics, compute_metrics, series_from_bag
+from twbr_runner.metrics import BagSummary, RunMetrics, compute_metrics, series_from_bag, tracking_metrics
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
+from twbr_sim.lidar import LIDAR_SPECS
 from twbr_sim.run_report import parse_run_report
-from twbr_sim.scenario import Scenario, load_scenario
+from twbr_sim.scenario import PERCEPTIONS, Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 
+# With the LiDAR (--perception lidar) the simulator's own obstacles, the truth, are remapped here, and
+# tracker_node publishes `obstacles` from the scans, as on a real robot: the planner and the controller's
+# collision monitor read what the tracker sees; the metrics and figures judge against the truth.
+TRUTH_OBSTACLES = "obstacles_truth"
 # Every topic of the contract, with its type: the recorder subscribes to these before any node starts.
 RECORDED_TOPICS = {
     "/clock": "rosgraph_msgs/msg/Clock",
@@ -65,12 +71,16 @@ RECORDED_TOPICS = {
     "planner_state": "twbr_msgs/msg/PlannerState",
     "planner_markers": "visualization_msgs/msg/MarkerArray",
     "cmd_vel": "geometry_msgs/msg/Twist",
+    "scan": "sensor_msgs/msg/LaserScan",
+    TRUTH_OBSTACLES: "twbr_msgs/msg/ObstacleArray",
 }
 # How long the runner listens for another graph on its domain before it starts one (participants announce
 # themselves at once and then every 0.5 s: config/fastdds.xml).
 NEIGHBOUR_WAIT_S = 1.5
 # How often the runner looks for publishers that are not its graph's on the run's topics, while it runs.
 FOREIGN_CHECK_S = 1.0
+# tracker_node's last line (TrackerNode.report)
+TRACKER_LATENCY = re.compile(r"(\d+) scans tracked; scan -> obstacles median ([0-9.]+) ms, p99 ([0-9.]+) ms")
 EXIT_FAILED = 1
 # Each runner's own rclpy node is named after when and by which process it started: two runners started
 # together see each other's, and the later one refuses (the earlier one runs), where neither graph has
@@ -118,6 +128,7 @@ class RunOptions:
     video: Path | None = None  # mujoco: the GIF mujoco_driver renders
     view_port: int | None = None  # the live viewer's web port (twbr_view), None: no viewer
     lockstep_timeout: float | None = None  # [s] wall; None: sim.yaml's
+    perception: str | None = None  # "lidar" or "truth"; None: what the scenario says (its default: lidar)
 
 
 def params_files(config: Path, *names: str) -> list[str]:
@@ -137,6 +148,21 @@ def ros_value(value: Any) -> str:
 
 SENSORS = ("ideal", "realistic")
 DRIVERS = ("sim", "mujoco")
+ROBOT_FILES = {"sim": ("sim.yaml", "sim_node"), "mujoco": ("mujoco_driver.yaml", "mujoco_driver")}
+
+
+def scan_rate(driver: str, config: Path) -> float:
+    """The robot's LiDAR rate [Hz] as its parameter file sets it (0: no scan)."""
+    name, node = ROBOT_FILES[driver]
+    return float(node_parameters(config / name, node).get("lidar.rate", default_of(LIDAR_SPECS, "lidar.rate")))
+
+
+def run_perception(scenario: Scenario, perception: str | None) -> str:
+    """What the planner's obstacles come from in this run: the caller's choice, else the scenario's; a run
+    without a planner has none to perceive ("truth": nothing is tracked)."""
+    if scenario.target is None:
+        return "truth"
+    return perception or scenario.perception
 
 
 def robot_node(driver: str, config: Path, sensors: str, video: Path | None = None) -> tuple[str, str, list[str]]:
@@ -158,8 +184,15 @@ def robot_node(driver: str, config: Path, sensors: str, video: Path | None = Non
 def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_dir: Path,
          planner_method: str | None = None, sensors: str = "ideal", driver: str = "sim",
          video: Path | None = None, view_port: int | None = None,
-         lockstep_timeout: float | None = None) -> list[NodeSpec]:
-    """The processes of a run, in start order (the simulator last: it waits for its subscribers)."""
+         lockstep_timeout: float | None = None, perception: str = "truth") -> list[NodeSpec]:
+    """The processes of a run, in start order (the simulator last: it waits for its subscribers).
+    `perception` lidar: tracker_node between the robot's scan and the planner (run_perception)."""
+    lidar = perception == "lidar"
+    rate = scan_rate(driver, config)
+    if lidar and rate <= 0.0:
+        name, _node = ROBOT_FILES[driver]
+        raise ConfigError(f"--perception lidar: the robot has no LiDAR (lidar.rate = {rate:g} in {name}); set"
+                          " lidar.rate > 0, or run with --perception truth")
     recorder_topics = [f"{t}:{kind}" for t, kind in RECORDED_TOPICS.items()]
     nodes = [
         # The recorder is not in the control loop: on 2 cores it must not delay the planner's cmd_vel.
@@ -177,6 +210,10 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         pinned = {**dict(scenario.planner), **({"method": planner_method} if planner_method else {})}
         resolve_planner(pinned, scenario)  # refused before any process starts
         overrides = [a for name, value in pinned.items() for a in ("-p", f"{name}:={ros_value(value)}")]
+        if lidar:  # its obstacles come once a scan: a plan at a scan's instant waits for that scan's
+            overrides += ["-p", f"obstacles_period:={1.0 / rate!r}"]
+            nodes.append(NodeSpec("tracker", "twbr_tracker", "tracker_node", params_files(config, "tracker.yaml"),
+                                  recorded=("/obstacles",), env=compiled_cores()))
         nodes.append(NodeSpec("planner", "twbr_planner", "planner_node",
                               [*params_files(config, "planner.yaml"), *overrides],
                               recorded=("/cmd_vel", "/planner_state"), env=compiled_cores()))
@@ -193,9 +230,10 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     nodes.append(NodeSpec("sim", package, executable, [
         *robot_args, "-p", f"scenario:={scenario_path}", "-p", f"duration:={scenario.duration}", "-p", f"seed:={seed}",
         "-p", "mode:=lockstep",
-        "-p", f"wait_for_subscribers:={(3 if planner else 2) + (view_port is not None)}",
+        "-p", f"wait_for_subscribers:={(3 if planner else 2) + lidar + (view_port is not None)}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",
         *(["-p", f"lockstep_timeout:={float(lockstep_timeout)}"] if lockstep_timeout is not None else []),
+        *(["-r", f"obstacles:={TRUTH_OBSTACLES}"] if lidar else []),
     ]))
     return nodes
 
@@ -396,8 +434,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     if opts.out_root.resolve() not in run_dir.resolve().parents:
         raise ConfigError(f"invalid scenario name {scenario.name!r}: the run directory would leave --out")
     bag_dir, log_dir = run_dir / "bag", run_dir / "logs"
+    perception = run_perception(scenario, opts.perception)
     nodes = plan(scenario, scenario_path.resolve(), config_dir(), seed, bag_dir, opts.planner_method, opts.sensors,
-                 opts.driver, opts.video, opts.view_port, opts.lockstep_timeout)
+                 opts.driver, opts.video, opts.view_port, opts.lockstep_timeout, perception)
     run_dir.mkdir(parents=True)
     env = loopback_env(domain)
     wall_timeout = opts.wall_timeout or 60.0 + 10.0 * scenario.duration
@@ -481,8 +520,9 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         told = (f"; publishers that are not this run's were on its topics: {'; '.join(list(foreign)[:6])}"
                 if foreign and not reason.startswith("failed: another graph") else "")
         print(f"run_scenario: {reason}{told}", file=sys.stderr, flush=True)  # even with --quiet
+    tracker_log = procs["tracker"].output if "tracker" in procs else ""
     metrics = analyse(run_dir, bag_dir, scenario, seed, sim_wall, time.monotonic() - wall_start, reason, opts,
-                      list(foreign))
+                      list(foreign), perception, tracker_log)
     if metrics is None and code == 0:
         code = EXIT_FAILED
     return code, run_dir
@@ -500,8 +540,10 @@ def watch_foreign(progress: Progress, ours: list[str], seen: dict[str, None]) ->
 
 
 def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: float | None, total_wall: float,
-            reason: str, opts: RunOptions, foreign: list[str] | None = None) -> RunMetrics | None:
-    """metrics.json and figures from the bag alone (plus the wall times the runner measured)."""
+            reason: str, opts: RunOptions, foreign: list[str] | None = None, perception: str = "truth",
+            tracker_log: str = "") -> RunMetrics | None:
+    """metrics.json and figures from the bag alone (plus the wall times the runner measured, and the
+    tracker's own latency from its log)."""
     try:
         info = bag_info(bag_dir)
         undecodable: Counter = Counter()
@@ -521,6 +563,16 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
         return None
     metrics.ended_by = reason
     metrics.foreign_publishers = list(foreign or [])
+    metrics.perception = perception
+    if perception == "lidar":
+        name, node = ROBOT_FILES[opts.driver]
+        range_max = float(node_parameters(config_dir() / name, node).get(
+            "lidar.range_max", default_of(LIDAR_SPECS, "lidar.range_max")))
+        metrics.tracking = tracking_metrics(series, range_max, 1.0 / scan_rate(opts.driver, config_dir()))
+        latency = TRACKER_LATENCY.search(tracker_log)
+        if metrics.tracking is not None and latency:
+            metrics.tracking.update(scans_tracked=int(latency[1]), latency_median_ms=float(latency[2]),
+                                    latency_p99_ms=float(latency[3]))
     metrics.run_wall_time_s = total_wall  # including start-up, discovery, shutdown and analysis start
     metrics.bag = BagSummary(str(bag_dir), info["storage_identifier"], info["message_count"])
     metrics.messages = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
@@ -623,11 +675,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="wall seconds the simulator waits for a command before stepping without it (counted in"
                          " lockstep_timeouts; default: sim.yaml's 0.5 s). A longer one rides out a host stalled by"
                          " other work; a dead controller then costs that long per step")
+    ap.add_argument("--perception", choices=PERCEPTIONS,
+                    help="the planner's obstacles: lidar (the robot's scan through tracker_node, as a real robot) or"
+                         " truth (the simulator's world); default: the scenario's (the paper's three pin truth,"
+                         " every other scenario lidar)")
     ap.add_argument("--planner-method", choices=METHODS,
                     help="the planner's method (default: what the scenario pins, else config/planner.yaml's; docs/planner.md)")
     a = ap.parse_args(argv)
     opts = RunOptions(Path(a.scenario), a.out, a.seed, a.domain, a.wall_timeout, not a.no_figures, a.quiet,
-                      a.planner_method, a.sensors, a.driver, a.video, a.view, a.lockstep_timeout)
+                      a.planner_method, a.sensors, a.driver, a.video, a.view, a.lockstep_timeout, a.perception)
     try:
         code, _ = run(opts)
     except ConfigError as e:

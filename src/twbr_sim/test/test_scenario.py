@@ -69,6 +69,7 @@ BASE = {"duration": 10.0, "target": {"position": [1.0, 2.0]}, "obstacles": [{"po
         (lambda d: d.update(robot=[0, 0]), "'robot': must be a mapping"),
         (lambda d: d.update(planner=["paper"]), "invalid field 'planner': must be a mapping"),
         (lambda d: d.update(planner={"k_p": [1, 2]}), "invalid field 'planner.k_p' = [1, 2]"),
+        (lambda d: d.update(perception="camera"), "'perception' = 'camera'"),
         # Before: a ZeroDivisionError traceback, a robot or a target inside an obstacle accepted, and a name
         # that wrote the run outside --out.
         (lambda d: d["obstacles"][0].update(heading="3pi/0"), "'obstacles[0].heading' = '3pi/0': divides by zero"),
@@ -182,6 +183,13 @@ def test_the_papers_navigation_scenarios_pin_the_papers_planner_and_nothing_else
                       "static": {"method": "paper"}, "step": {}, "yaw_step": {}}
     suite = [load_scenario(p) for p in sorted((CONFIG / "suite").glob("*.yaml"))]
     assert suite and all(sc.planner == () for sc in suite)
+
+
+def test_the_papers_navigation_scenarios_pin_the_worlds_obstacles_and_the_rest_see_with_the_lidar():
+    perception = {name: load_scenario(CONFIG / f"{name}.yaml").perception for name in SCENARIOS}
+    assert perception == {"dynamic_obstacles": "truth", "dynamic_target": "truth", "static": "truth",
+                          "step": "lidar", "yaw_step": "lidar"}
+    assert {load_scenario(p).perception for p in (CONFIG / "suite").glob("*.yaml")} == {"lidar"}
 
 
 def test_a_directory_given_as_scenario_is_named_a_directory(tmp_path):

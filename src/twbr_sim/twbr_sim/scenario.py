@@ -13,6 +13,8 @@ A scenario may pin planner parameters (`planner`, e.g. `{method: paper}` in the 
 which reproduce its results): every run of it uses them unless the caller sets the same parameter (the
 runner's --planner-method, the suite's methods). They are checked against the planner's parameter table
 where a run starts (twbr_planner.planner_params.resolve), not here: the simulator does not know them.
+Likewise `perception` (lidar, the default, or truth, which the paper's three pin): where the runner's
+planner takes its obstacles from, unless the caller says (--perception).
 """
 
 from __future__ import annotations
@@ -148,14 +150,19 @@ class Scenario:
     end_on_target: bool = False
     variation: Variation = Variation()
     planner: tuple[tuple[str, Any], ...] = ()  # planner parameters the scenario pins: (name, value)
+    perception: str = "lidar"  # the planner's obstacles: "lidar" (scan -> tracker_node) or "truth" (the world's)
     source: str = field(default="", compare=False)
 
 
 _BIG = 1e6
+PERCEPTIONS = ("lidar", "truth")
 _TOP = (
     ParamSpec("duration", 60.0, "time limit of the run", "s", 0.0, 86400.0, low_open=True),
     ParamSpec("seed", 0, "seed of the target's random turns (a node's seed parameter overrides it)", "", 0, 2**31 - 1),
     ParamSpec("end_on_target", False, "end the run when the target is reached"),
+    ParamSpec("perception", "lidar", "what the planner's obstacles come from where a run starts: lidar (the"
+              " simulated LiDAR through tracker_node, as a real robot) or truth (the world's own obstacles; the"
+              " paper's three scenarios pin it)", choices=PERCEPTIONS),
 )
 _ROBOT = (
     ParamSpec("x", 0.0, "start x in odom", "m", -_BIG, _BIG),
@@ -363,7 +370,8 @@ def parse_scenario(raw: Any, name: str = "scenario", source: str = "") -> Scenar
         name=name, description=description, duration=top["duration"], seed=top["seed"],
         start_x=robot["x"], start_y=robot["y"], start_yaw=robot["yaw"], start_pitch=robot["pitch"],
         target=target, obstacles=tuple(obstacles), commands=tuple(commands),
-        end_on_target=top["end_on_target"], variation=variation, planner=planner, source=source,
+        end_on_target=top["end_on_target"], variation=variation, planner=planner, perception=top["perception"],
+        source=source,
     )
     if (problem := layout_problem(scenario)) is not None:
         raise ConfigError(problem)

@@ -163,7 +163,7 @@ class SimNode(Node):
         self.send_control_state()
 
     def prepare_control_state(self) -> None:
-        """Fill the messages of the current state: the clock and the world when due, odom and imu.
+        """Fill the messages of the current state: the clock, the world and the scan when due, odom and imu.
 
         Apart from sending, so that realtime can fill them in the slack of the period before and send them
         at the tick: filling is Python, several times slower on a CPU that just woke up, and it would sit in
@@ -175,6 +175,8 @@ class SimNode(Node):
         self._clock_msg.clock = stamp
         due = self.publications.with_state(sim.time, self.hosting_world)
         world = self.world_messages(stamp) if due.world else []
+        if due.scan:
+            world.append((self.pub_scan, laser_scan(self.cfg, sim.scan(), stamp)))
         s = sim.state
         sample = sim.sense()
         e = sample.encoders
@@ -202,12 +204,12 @@ class SimNode(Node):
 
     def send_control_state(self, again: bool = False) -> None:
         """What the controller and the planner act on, first, so their answers are not held up: the clock,
-        the world when due (before odom, so a planner triggered by odom has the world of the same
-        instant), then odom and imu back to back (the controller computes once it has both). `again`
-        offers the same state once more (held at t = 0), with its clock and world: a node that missed
-        them (its subscription matched after they went out, e.g. a simulator restarted beside running
-        nodes whose clock still reads the old run's end) learns of the new run from the next offer,
-        however long discovery takes."""
+        the world and the scan when due (before odom, so a planner triggered by odom, or a tracker that
+        places a scan with the odom of its instant, has them for the same instant), then odom and imu back
+        to back (the controller computes once it has both). `again` offers the same state once more (held
+        at t = 0), with its clock and world: a node that missed them (its subscription matched after they
+        went out, e.g. a simulator restarted beside running nodes whose clock still reads the old run's
+        end) learns of the new run from the next offer, however long discovery takes."""
         now_ns, clock_due, world = self._prepared
         self._published_at = time.perf_counter()
         if clock_due or again:
@@ -275,8 +277,6 @@ class SimNode(Node):
             q = pose.orientation
             tf.transform.rotation = Quaternion(x=q.x, y=q.y, z=q.z, w=q.w)  # odom's is refilled next state
             out.append((self.pub_tf, TFMessage(transforms=[tf])))
-        if due.scan:
-            out.append((self.pub_scan, laser_scan(self.cfg, sim.scan(), stamp)))
         if due.markers and self.pub_markers.get_subscription_count():  # built only while a viewer listens
             world = sim.world
             out.append((self.pub_markers, world_markers(world.target(), world.obstacles(), world.capture_radius,

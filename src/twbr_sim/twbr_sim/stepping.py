@@ -119,17 +119,18 @@ class RealtimeTicks:
 class StateTopics(NamedTuple):
     clock: bool
     world: bool
+    scan: bool
 
 
 class StateTelemetryTopics(NamedTuple):
     tf: bool
     markers: bool
-    scan: bool
 
 
 class Publications:
-    """Which decimated topics go out at sim time t: /clock and the world with the state, /tf, sim_status
-    (also whenever a flag changes) and the markers with telemetry."""
+    """Which decimated topics go out at sim time t: /clock, the world and the scan with the state (before
+    odom: a planner, or a tracker feeding one, has them for the instant it answers), /tf, sim_status (also
+    whenever a flag changes) and the markers with telemetry."""
 
     def __init__(self, clock_rate: float, world_rate: float, tf_rate: float, marker_rate: float,
                  scan_rate: float = 0.0) -> None:
@@ -142,11 +143,10 @@ class Publications:
 
     def with_state(self, t: float, hosting_world: bool) -> StateTopics:
         clock = self._clock.due(t)
-        return StateTopics(clock, hosting_world and self._world.due(t))
+        return StateTopics(clock, hosting_world and self._world.due(t), self._scan is not None and self._scan.due(t))
 
     def with_state_telemetry(self, t: float, hosting_world: bool) -> StateTelemetryTopics:
-        return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t),
-                                    self._scan is not None and self._scan.due(t))
+        return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t))
 
     def status_due(self, t: float, flags_changed: bool) -> bool:
         return self._status.due(t) or flags_changed

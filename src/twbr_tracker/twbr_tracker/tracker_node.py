@@ -2,8 +2,11 @@
 
 Subscribes `scan` (sensor_msgs/LaserScan) and `odom` (the robot's pose and pitch); publishes `obstacles`
 (twbr_msgs/ObstacleArray in the odom frame, stamped with the scan's stamp): the confirmed tracks with their
-velocities and a wall's chain of discs. A scan is placed with the newest odom stamped within `odom_timeout`
-of it; without one it is dropped (and said so), never placed at a stale pose.
+velocities and a wall's chain of discs. A scan is placed with the first odom stamped at or after its stamp
+(a simulator sends the scan of an instant before its odom; a robot's odom comes at 100-200 Hz), waiting for
+it if need be, so the tracks are the same however the two streams interleave: a lockstep run is the same
+loaded or idle. A scan with no such odom within `odom_timeout` of it is dropped (and said so), never placed
+at a stale pose; a scan not newer than the last one (a simulator offering its first state again) is skipped.
 
     ros2 run twbr_tracker tracker_node --ros-args --params-file config/tracker.yaml
 """
@@ -30,7 +33,7 @@ from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
 NODE_SPECS: tuple[ParamSpec, ...] = (
     *TRACKER_SPECS,
-    ParamSpec("odom_timeout", 0.2, "a scan farther than this from the newest odom's stamp is dropped", "s",
+    ParamSpec("odom_timeout", 0.2, "a scan whose first odom at or after it comes later than this is dropped", "s",
               0.001, 10.0),
     ParamSpec("odom_frame", "odom", "frame of the published obstacles"),
 )
@@ -46,8 +49,10 @@ class TrackerNode(Node):
         self.inputs = input_streams(self)
         self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
-        self._pose: tuple[float, ...] | None = None  # stamp, x, y, yaw, speed, yaw rate, pitch
-        self.latencies = LatencyRecord()  # scan received -> obstacles published, in constant memory
+        self._pose: tuple[float, ...] | None = None  # newest odom: stamp, x, y, yaw, speed, yaw rate, pitch
+        self._waiting: LaserScan | None = None  # a scan newer than every odom yet: placed by the next one
+        self._last_scan = -math.inf  # stamp of the last scan tracked
+        self.latencies = LatencyRecord()  # scan and its odom in -> obstacles published, in constant memory
         self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_subscription(LaserScan, "scan", self._on_scan, SENSOR_SUB_QOS)
@@ -63,6 +68,8 @@ class TrackerNode(Node):
         self.get_logger().warning("clock jumped back: every track is dropped")
         self.core.reset()
         self._pose = None
+        self._waiting = None
+        self._last_scan = -math.inf
 
     def _on_odom(self, msg: Odometry) -> None:
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
@@ -72,16 +79,33 @@ class TrackerNode(Node):
             return
         _roll, pitch, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         self._pose = (stamp, p.x, p.y, yaw, v, w, pitch)
+        if self._waiting is not None and stamp >= stamp_seconds(self._waiting.header.stamp):
+            scan, self._waiting = self._waiting, None
+            self._track(scan)
 
     def _on_scan(self, msg: LaserScan) -> None:
+        t = stamp_seconds(msg.header.stamp)
+        if t <= self._last_scan:
+            return
+        if self._waiting is not None and stamp_seconds(self._waiting.header.stamp) != t:  # not an offer again
+            self.get_logger().warning(f"scan at t = {stamp_seconds(self._waiting.header.stamp):.3f} s dropped: no"
+                                      " odom at or after it before the next scan", throttle_duration_sec=2.0)
+        if self._pose is not None and self._pose[0] >= t:
+            self._waiting = None
+            self._track(msg)
+        else:
+            self._waiting = msg
+
+    def _track(self, msg: LaserScan) -> None:
         received = time.perf_counter()
         t = stamp_seconds(msg.header.stamp)
-        if self._pose is None or abs(t - self._pose[0]) > self.cfg["odom_timeout"]:
+        stamp, x, y, yaw, v, w, pitch = self._pose
+        if stamp - t > self.cfg["odom_timeout"]:
             self.get_logger().warning(f"scan at t = {t:.3f} s dropped: no odom within {self.cfg['odom_timeout']:g} s"
                                       " of it", throttle_duration_sec=2.0)
             return
-        stamp, x, y, yaw, v, w, pitch = self._pose
-        # the pose carried back (or on) to the scan's first beam along the odom's twist
+        self._last_scan = t
+        # the pose carried back to the scan's first beam along the odom's twist
         dt = t - stamp
         x, y, yaw = x + v * dt * math.cos(yaw), y + v * dt * math.sin(yaw), yaw + w * dt
         ranges = np.asarray(msg.ranges, dtype=np.float64)
