@@ -11,7 +11,7 @@ import pytest
 from twbr_common.params import defaults
 from twbr_sim.lidar import LIDAR_SPECS, cast_scan
 from twbr_sim.lidar import settings_vector as lidar_vector
-from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, detect, settings_vector
+from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect, settings_vector
 
 AXLE = 0.10
 HEIGHT = defaults(LIDAR_SPECS)["lidar.height"]
@@ -30,7 +30,7 @@ def scan_of(discs, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) ->
 
 
 def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) -> np.ndarray:
-    out = np.empty((len(ranges), 4))
+    out = np.empty((len(ranges), N_DISC))
     n = detect(settings_vector(defaults(DETECTION_SPECS)), ranges, -math.pi, math.radians(1.0), STEP, x, y, yaw,
                speed, yaw_rate, pitch, AXLE, HEIGHT, out)
     return out[:n]

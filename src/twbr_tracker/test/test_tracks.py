@@ -12,7 +12,7 @@ from twbr_common.params import defaults
 from twbr_sim.lidar import LIDAR_SPECS, LIDAR_STREAM, cast_scan, scan_noise
 from twbr_sim.lidar import settings_vector as lidar_vector
 from twbr_sim.noise import new_generator
-from twbr_tracker.detection import DETECTION_SPECS, detect
+from twbr_tracker.detection import DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
@@ -23,6 +23,7 @@ from twbr_tracker.tracks import (
     TR_X,
     TR_Y,
     TRACK_SPECS,
+    mark_occluded,
     new_tracks,
     settings_vector,
     track_step,
@@ -32,13 +33,14 @@ AXLE = 0.10
 RATE = 10.0
 
 
-def run(people, seconds: float, noisy: bool = True, seed: int = 1):
+def run(people, seconds: float, noisy: bool = True, seed: int = 1, **tracking):
     """Scans of people moving in straight lines ((x0, y0, vx, vy, radius) each) seen from a still robot at
-    the origin, tracked; yields (t, confirmed tracks, truth positions and velocities) per scan."""
+    the origin, tracked (`tracking` over the defaults, e.g. max_coast=0.0); yields (t, confirmed tracks,
+    truth positions and velocities) per scan."""
     lidar_cfg = {**defaults(LIDAR_SPECS), **({} if noisy else {"lidar.range_noise_std": 0.0, "lidar.dropout": 0.0})}
     ls = lidar_vector(lidar_cfg)
     ds = detection_vector(defaults(DETECTION_SPECS))
-    ks = settings_vector(defaults(TRACK_SPECS))
+    ks = settings_vector({**defaults(TRACK_SPECS), **{f"tracking.{k}": v for k, v in tracking.items()}})
     tracks, cov = new_tracks(ks)
     n, next_id = 0, 1
     g = new_generator(seed, LIDAR_STREAM)
@@ -49,10 +51,11 @@ def run(people, seconds: float, noisy: bool = True, seed: int = 1):
         ranges = np.empty(360)
         cast_scan(ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE, positions, p[:, 2:4].copy(), p[:, 4].copy(), ranges)
         scan_noise(ls, g, ranges)
-        discs = np.empty((360, 4))
+        discs = np.empty((360, N_DISC))
         m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.1 / 360, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE,
                    lidar_cfg["lidar.height"], discs)
         # the scan's beams are spread over its turn: the tracker takes the scan at its middle instant
+        mark_occluded(ks, tracks, n, t, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0)
         n, next_id = track_step(ks, tracks, cov, n, next_id, t, discs, m)
         yield t, tracks[:n][tracks[:n, TR_CONFIRMED] != 0.0].copy(), positions, p[:, 2:4]
 
@@ -94,6 +97,26 @@ def test_a_still_post_is_static_and_a_vanished_person_is_dropped():
     assert len(last) == 1 and last[0, TR_MOVING] == 0.0
     gone = list(run([(3.0, 0.0, 0.0, 3.0, 0.3)], 6.0))  # out of the 12 m range from t = 3.9 s
     assert len(gone[15][1]) == 1 and len(gone[-1][1]) == 0
+
+
+def test_a_person_hidden_behind_another_for_a_second_keeps_its_track():
+    """A walker passes behind a person standing 2 m from the robot: hidden for ~1.2 s, twice max_misses'
+    0.5 s. Its track coasts on its prediction (and is published) and takes the walker back; without the
+    coasting it is dropped and the walker comes back as a new track."""
+    people = [(2.0, 0.0, 0.0, 0.0, 0.3), (4.0, -2.0, 0.0, 0.5, 0.3)]  # behind the stander for |y| < ~0.3 m
+
+    def walker_ids(**tracking) -> tuple[set, int]:
+        ids, hidden_published = set(), 0
+        for _t, confirmed, positions, _v in run(people, 8.0, **tracking):
+            mine = [c for c in confirmed if nearest(c, positions) == 1 and abs(c[TR_X] - 4.0) < 0.5]
+            ids |= {c[TR_ID] for c in mine}
+            hidden_published += abs(positions[1, 1]) < 0.2 and len(mine) == 1
+        return ids, hidden_published
+
+    coasted, published = walker_ids()
+    assert len(coasted) == 1 and published >= 6  # one id; still published while hidden (0.8 s, 8 scans)
+    dropped, _ = walker_ids(max_coast=0.0)
+    assert len(dropped) == 2
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -49,12 +49,17 @@ DS_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
 DS_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
-# One disc: centre [m], radius [m], and whether it is part of a wall's chain (1) or a compact object (0).
-DISC_LAYOUT = Layout(("x", "y", "radius", "wall"))
+# One disc: centre [m], radius [m], whether it is part of a wall's chain (1) or a compact object (0), when
+# its beams saw it [s after the scan's first beam]: a person walks 5 cm in a 10 Hz scanner's turn, and
+# whether it is clipped (1): a closer return right beside either end, so what shows may be part of it
+# only and its fitted centre is off towards the part that shows.
+DISC_LAYOUT = Layout(("x", "y", "radius", "wall", "t", "clipped"))
 DC_X = DISC_LAYOUT["x"]
 DC_Y = DISC_LAYOUT["y"]
 DC_RADIUS = DISC_LAYOUT["radius"]
 DC_WALL = DISC_LAYOUT["wall"]
+DC_T = DISC_LAYOUT["t"]
+DC_CLIPPED = DISC_LAYOUT["clipped"]
 N_DISC = len(DISC_LAYOUT)
 
 
@@ -67,10 +72,10 @@ def settings_vector(cfg: dict) -> np.ndarray:
 
 @kernel
 def scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch, axle_height,
-                height, floor_margin, first, points, beams):
+                height, floor_margin, first, points, beams, times):
     """The returns of a scan that began at the pose (x, y, yaw) moving at (speed, yaw_rate), as points in odom
-    [m] (points[k]), taken round from beam `first`, with their place in that order (beams[k]); the floor's
-    and REP 117's infinities left out. Returns how many."""
+    [m] (points[k]), taken round from beam `first`, with their place in that order (beams[k]) and their
+    instant in the scan (times[k], s); the floor's and REP 117's infinities left out. Returns how many."""
     sin_th = math.sin(pitch)
     cos_th = math.cos(pitch)
     z = axle_height + height * cos_th
@@ -95,6 +100,7 @@ def scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, s
         points[n, 0] = sx + fwd * c - side * sn
         points[n, 1] = sy + fwd * sn + side * c
         beams[n] = k
+        times[n] = i * time_increment
         n += 1
     return n
 
@@ -158,7 +164,20 @@ def _circle_fit(points, lo, hi):
 
 
 @kernel
-def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
+def _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y):
+    """Whether the beam just outside either end of points[lo:hi] returns closer than that end: an object
+    in front hides part of this one."""
+    n_beams = ranges.shape[0]
+    for end, step in ((lo, -1), (hi - 1, 1)):
+        outside = ranges[(first + beams[end] + step) % n_beams]
+        near = math.hypot(points[end, 0] - scanner_x, points[end, 1] - scanner_y)
+        if outside == -math.inf or (math.isfinite(outside) and outside < near - 0.1):
+            return True
+    return False
+
+
+@kernel
+def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, ranges, first, beams):
     """The discs of segments 0..count-1 (DISC_LAYOUT rows of `discs`); returns how many."""
     n = 0
     for g in range(count):
@@ -166,6 +185,10 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
         hi = starts[g + 1]
         if hi - lo < s[DS_MIN_POINTS]:
             continue
+        clipped = 1.0 if _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y) else 0.0
+        seen = 0.0
+        for i in range(lo, hi):
+            seen += times[i] / (hi - lo)
         extent = math.hypot(points[hi - 1, 0] - points[lo, 0], points[hi - 1, 1] - points[lo, 1])
         if extent <= s[DS_MAX_DISC_EXTENT]:
             cx, cy = _centroid(points, lo, hi)
@@ -183,6 +206,8 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
                 discs[n, DC_Y] = cy + half * (cy - scanner_y) / d
                 discs[n, DC_RADIUS] = half
             discs[n, DC_WALL] = 0.0
+            discs[n, DC_T] = seen
+            discs[n, DC_CLIPPED] = clipped
             n += 1
             continue
         pieces = math.ceil(extent / s[DS_CHAIN_SPACING])
@@ -199,6 +224,8 @@ def fit_discs(s, points, starts, count, scanner_x, scanner_y, discs):
             discs[n, DC_Y] = cy
             discs[n, DC_RADIUS] = max(reach, s[DS_MIN_RADIUS])
             discs[n, DC_WALL] = 1.0
+            discs[n, DC_T] = seen
+            discs[n, DC_CLIPPED] = clipped
             n += 1
     return n
 
@@ -212,15 +239,16 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
     n_beams = ranges.shape[0]
     points = np.empty((n_beams, 2))
     beams = np.empty(n_beams, dtype=np.int64)
+    times = np.empty(n_beams)
     first = 0  # start the round at a beam without a return, so no object is cut in two at the seam
     for i in range(n_beams):
         if not math.isfinite(ranges[i]):
             first = i
             break
     n = scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-                    axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams)
+                    axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams, times)
     scanner_x = x + height * math.sin(pitch) * math.cos(yaw)
     scanner_y = y + height * math.sin(pitch) * math.sin(yaw)
     starts = np.empty(n_beams + 1, dtype=np.int64)
     count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)
-    return fit_discs(s, points, starts, count, scanner_x, scanner_y, discs)
+    return fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, ranges, first, beams)

@@ -20,6 +20,7 @@ from twbr_tracker.tracks import (
     TR_X,
     TR_Y,
     TRACK_SPECS,
+    mark_occluded,
     new_tracks,
     track_step,
 )
@@ -66,6 +67,7 @@ class Tracker:
         discs = np.empty((len(ranges), N_DISC))
         m = detect(self._d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                    self.cfg["axle_height"], self.cfg["lidar_height"], discs)
+        mark_occluded(self._k, self.tracks, self.n, t, ranges, angle_min, angle_increment, x, y, yaw)
         self.n, self.next_id = track_step(self._k, self.tracks, self.cov, self.n, self.next_id, t, discs, m)
         out = [TrackedObstacle(int(r[TR_ID]), float(r[TR_X]), float(r[TR_Y]), float(r[TR_VX]), float(r[TR_VY]),
                                float(r[TR_RADIUS])) for r in self.tracks[:self.n] if r[TR_CONFIRMED] != 0.0]

@@ -3,6 +3,13 @@ to the next scan's discs by the Hungarian method on a gated distance, born from 
 confirmed after `confirm_hits` matches, dropped after `max_misses` scans without one (a tentative track at
 its first miss), and called moving above `moving_speed`.
 
+A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
+closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
+up to `max_coast` seconds since its last match, and is published meanwhile (the planner still avoids
+where the person must be). Its gate widens with its uncertainty (three position standard deviations, at
+most `max_gate`), so it takes the person back when they reappear instead of a new track being born:
+in a crowd most of a track's gaps are such occlusions, and each new id is an ID switch.
+
 The state is (x, y, vx, vy) in odom [m, m/s]; the motion model is white-noise acceleration of spectral
 density `acceleration_noise` (Bar-Shalom, Li & Kirubarajan 2001, ch. 6: Q for a step dt is
 q [dt^3/3, dt^2/2; dt^2/2, dt] per axis); a disc's centre is measured with std `position_noise`. A wall's
@@ -20,25 +27,34 @@ from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_tracker.assignment import assign
-from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y
+from twbr_tracker.detection import DC_CLIPPED, DC_RADIUS, DC_T, DC_WALL, DC_X, DC_Y
 
 TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.gate", 0.8, "a disc farther than this from a track's prediction is not its own", "m",
               0.0, 10.0, low_open=True),
     ParamSpec("tracking.confirm_hits", 3, "matches before a track is published", "", 1, 100),
     ParamSpec("tracking.max_misses", 5, "scans without a match before a confirmed track is dropped", "", 0, 1000),
-    ParamSpec("tracking.acceleration_noise", 1.0, "spectral density of the white-noise acceleration", "m^2/s^3",
+    ParamSpec("tracking.acceleration_noise", 0.3, "spectral density of the white-noise acceleration", "m^2/s^3",
               0.0, 100.0, low_open=True),
-    ParamSpec("tracking.position_noise", 0.05, "std of a disc centre as detection measures it", "m", 0.0, 5.0,
+    ParamSpec("tracking.position_noise", 0.1, "std of a disc centre as detection measures it", "m", 0.0, 5.0,
               low_open=True),
     ParamSpec("tracking.initial_speed_std", 1.0, "std of a new track's velocity", "m/s", 0.0, 100.0, low_open=True),
     ParamSpec("tracking.moving_speed", 0.15, "a track faster than this is moving, slower is static", "m/s", 0.0,
               10.0),
     ParamSpec("tracking.max_tracks", 64, "tracks kept at once (the oldest tentative ones give way)", "", 1, 10000),
+    ParamSpec("tracking.max_coast", 2.0, "an occluded confirmed track coasts on its prediction this long after"
+              " its last match", "s", 0.0, 60.0),
+    ParamSpec("tracking.max_gate", 1.5, "the widest a coasting track's gate grows (3 position std)", "m", 0.0, 10.0,
+              low_open=True),
+    ParamSpec("tracking.clipped_noise", 0.3, "std of a clipped disc's centre (partly hidden: detection's"
+              " DC_CLIPPED): it keeps its track but hardly moves it", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("tracking.occlusion_margin", 0.2, "a beam shorter than a track's near side by this much passes in"
+              " front of it", "m", 0.0, 5.0),
 )
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
-                          "initial_speed_std", "moving_speed", "max_tracks"))
+                          "initial_speed_std", "moving_speed", "max_tracks", "max_coast", "max_gate",
+                          "clipped_noise", "occlusion_margin"))
 TS_GATE = SETTINGS_LAYOUT["gate"]
 TS_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
 TS_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
@@ -47,10 +63,14 @@ TS_POSITION_NOISE = SETTINGS_LAYOUT["position_noise"]
 TS_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
 TS_MOVING_SPEED = SETTINGS_LAYOUT["moving_speed"]
 TS_MAX_TRACKS = SETTINGS_LAYOUT["max_tracks"]
+TS_MAX_COAST = SETTINGS_LAYOUT["max_coast"]
+TS_MAX_GATE = SETTINGS_LAYOUT["max_gate"]
+TS_CLIPPED_NOISE = SETTINGS_LAYOUT["clipped_noise"]
+TS_OCCLUSION_MARGIN = SETTINGS_LAYOUT["occlusion_margin"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 TRACK_LAYOUT = Layout(("id", "x", "y", "vx", "vy", "radius", "hits", "misses", "confirmed", "moving", "t",
-                       "born"))
+                       "born", "seen", "occluded"))
 TR_ID = TRACK_LAYOUT["id"]
 TR_X = TRACK_LAYOUT["x"]
 TR_Y = TRACK_LAYOUT["y"]
@@ -63,6 +83,8 @@ TR_CONFIRMED = TRACK_LAYOUT["confirmed"]
 TR_MOVING = TRACK_LAYOUT["moving"]
 TR_T = TRACK_LAYOUT["t"]  # [s] the instant the state is at
 TR_BORN = TRACK_LAYOUT["born"]  # [s]
+TR_SEEN = TRACK_LAYOUT["seen"]  # [s] its last match
+TR_OCCLUDED = TRACK_LAYOUT["occluded"]  # 1: hidden behind closer returns in the last scan
 N_TRACK = len(TRACK_LAYOUT)
 
 
@@ -102,9 +124,10 @@ def _predict(s, track, cov, t):
 
 
 @kernel
-def _update(s, track, cov, zx, zy, radius):
-    """The Kalman update on a measured centre (zx, zy) [m]; the radius is smoothed."""
-    r = s[TS_POSITION_NOISE] ** 2
+def _update(s, track, cov, zx, zy, radius, clipped):
+    """The Kalman update on a measured centre (zx, zy) [m]; the radius is smoothed (not from a clipped disc,
+    whose centre is also trusted less)."""
+    r = (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2
     innovation_cov = cov[:2, :2].copy()
     innovation_cov[0, 0] += r
     innovation_cov[1, 1] += r
@@ -117,13 +140,57 @@ def _update(s, track, cov, zx, zy, radius):
     h[0, 0] = 1.0
     h[1, 1] = 1.0
     cov[:, :] = (np.eye(4) - gain @ h) @ cov
-    track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius
+    if not clipped:
+        track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius
+
+
+@kernel
+def mark_occluded(s, tracks, n, t, ranges, angle_min, angle_increment, x, y, yaw):
+    """TR_OCCLUDED of tracks[:n] for the scan at t [s] from (x, y, yaw): set where more than half the beams
+    across the track's disc, where it is predicted at t, return short of its near side."""
+    beams = ranges.shape[0]
+    for j in range(n):
+        ahead = max(0.0, t - tracks[j, TR_T])
+        dx = tracks[j, TR_X] + tracks[j, TR_VX] * ahead - x
+        dy = tracks[j, TR_Y] + tracks[j, TR_VY] * ahead - y
+        dist = math.hypot(dx, dy)
+        radius = tracks[j, TR_RADIUS]
+        tracks[j, TR_OCCLUDED] = 0.0
+        if dist <= radius:
+            continue
+        # the bearing from the first beam, within one turn
+        bearing = (math.atan2(dy, dx) - yaw - angle_min) % (2.0 * math.pi)
+        half = math.asin(radius / dist)
+        first = math.ceil((bearing - half) / angle_increment)
+        last = math.floor((bearing + half) / angle_increment)
+        near = dist - radius - s[TS_OCCLUSION_MARGIN]
+        across = 0
+        blocked = 0
+        turn = round(2.0 * math.pi / angle_increment)  # beams in a full turn (a 270 degree scanner has fewer)
+        for b in range(first, last + 1):
+            i = b % turn
+            if i >= beams:
+                continue  # outside the scanner's field of view: neither seen nor hidden
+            r = ranges[i]
+            across += 1
+            if r < near or r == -math.inf:  # -inf: closer than the device measures (REP 117)
+                blocked += 1
+        if across > 0 and 2 * blocked > across:
+            tracks[j, TR_OCCLUDED] = 1.0
+
+
+@kernel
+def gate_of(s, cov):
+    """A track's gate [m]: `gate`, widened to three position std of its covariance, at most `max_gate`."""
+    sigma = math.sqrt(max(cov[0, 0], cov[1, 1]))
+    return max(s[TS_GATE], min(3.0 * sigma, s[TS_MAX_GATE]))
 
 
 @kernel
 def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
-    """One scan's discs (detection's rows) at time t [s] into the tracks tracks[:n]; returns the new (n,
-    next_id). Rows move: a dropped track's row takes the last one's."""
+    """One scan's discs (detection's rows) at time t [s] into the tracks tracks[:n] (their TR_OCCLUDED
+    marked for this scan, mark_occluded); returns the new (n, next_id). Rows move: a dropped track's row
+    takes the last one's."""
     for j in range(n):
         _predict(s, tracks[j], cov[j], t)
     compact = np.empty(n_discs, dtype=np.int64)
@@ -134,9 +201,10 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
             m += 1
     cost = np.empty((n, m))
     for j in range(n):
+        scale = s[TS_GATE] / gate_of(s, cov[j])  # a distance within the track's own gate is within `gate`
         for k in range(m):
             d = compact[k]
-            cost[j, k] = math.hypot(discs[d, DC_X] - tracks[j, TR_X], discs[d, DC_Y] - tracks[j, TR_Y])
+            cost[j, k] = scale * math.hypot(discs[d, DC_X] - tracks[j, TR_X], discs[d, DC_Y] - tracks[j, TR_Y])
     match = np.empty(n, dtype=np.int64)
     assign(cost, s[TS_GATE], match)
     taken = np.zeros(m, dtype=np.bool_)
@@ -145,18 +213,22 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         if k >= 0:
             d = compact[k]
             taken[k] = True
-            _update(s, tracks[j], cov[j], discs[d, DC_X], discs[d, DC_Y], discs[d, DC_RADIUS])
+            # seen DC_T into the scan: carried back to the scan's instant along the track's velocity
+            back = discs[d, DC_T]
+            _update(s, tracks[j], cov[j], discs[d, DC_X] - tracks[j, TR_VX] * back,
+                    discs[d, DC_Y] - tracks[j, TR_VY] * back, discs[d, DC_RADIUS], discs[d, DC_CLIPPED] != 0.0)
             tracks[j, TR_HITS] += 1.0
             tracks[j, TR_MISSES] = 0.0
+            tracks[j, TR_SEEN] = t
             if tracks[j, TR_HITS] >= s[TS_CONFIRM_HITS]:
                 tracks[j, TR_CONFIRMED] = 1.0
-        else:
+        elif tracks[j, TR_OCCLUDED] == 0.0 or tracks[j, TR_CONFIRMED] == 0.0:
             tracks[j, TR_MISSES] += 1.0
         tracks[j, TR_MOVING] = 1.0 if math.hypot(tracks[j, TR_VX], tracks[j, TR_VY]) > s[TS_MOVING_SPEED] else 0.0
     j = 0
-    while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses
+    while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses or max_coast
         limit = s[TS_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
-        if tracks[j, TR_MISSES] > limit:
+        if tracks[j, TR_MISSES] > limit or t - tracks[j, TR_SEEN] > s[TS_MAX_COAST] + 1e-9:
             n -= 1
             tracks[j, :] = tracks[n, :]
             cov[j, :, :] = cov[n, :, :]
@@ -174,6 +246,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         tracks[n, TR_HITS] = 1.0
         tracks[n, TR_T] = t
         tracks[n, TR_BORN] = t
+        tracks[n, TR_SEEN] = t
         tracks[n, TR_CONFIRMED] = 1.0 if s[TS_CONFIRM_HITS] <= 1.0 else 0.0
         cov[n, :, :] = 0.0
         cov[n, 0, 0] = cov[n, 1, 1] = s[TS_POSITION_NOISE] ** 2
