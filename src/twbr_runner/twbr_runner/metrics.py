@@ -32,7 +32,7 @@ CONTROLLER_FIELDS = (
 
 # What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
 MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/ground_truth", "/joint_states", "/sim_status",
-                   "/world_status", "/target", "/obstacles", "/obstacles_truth", "/planner_state")
+                   "/world_status", "/target", "/target_tracked", "/obstacles", "/obstacles_truth", "/planner_state")
 OBSTACLE_TOPICS = ("/obstacles", "/obstacles_truth")  # read from their bytes; the truth's with the LiDAR
 
 
@@ -60,6 +60,9 @@ class RunSeries:
     world_status: list[Any] = field(default_factory=list)
     target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    # With the LiDAR: the tracker's fused target (from target_detections), for its error against `target`
+    tracked_target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
+    tracked_target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     # (stamp, rows of id, x, y, vx, vy, radius): snapshots of the world's obstacle list
     # (OBSTACLE_SNAPSHOT_PERIOD): `obstacles_truth` where the run had one (the LiDAR's), else `obstacles`
     obstacles: list[tuple[float, np.ndarray]] = field(default_factory=list)
@@ -77,6 +80,7 @@ _VALUES: dict[str, Any] = {
                         m.pose.pose.orientation.y, m.pose.pose.orientation.z, m.pose.pose.orientation.w,
                         m.twist.twist.linear.x, m.twist.twist.angular.z),
     "/target": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
+    "/target_tracked": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
     "/planner_state": lambda m: (m.velocity_cmd, m.yaw_rate_cmd, m.distance_to_target),
     # (a field a bag recorded before it existed reads as 0)
     "/controller_state": lambda m: tuple(float(getattr(m, name, 0.0)) for name in CONTROLLER_FIELDS),
@@ -195,7 +199,7 @@ class SeriesBuilder:
             row = (t, *values)
         elif topic == "/joint_states":
             row = (t, *(list(msg.effort)[:2]))
-        elif topic == "/target":
+        elif topic in ("/target", "/target_tracked"):
             row = (t, msg.pose.pose.position.x, msg.pose.pose.position.y)
         else:  # statuses and planner_state: a few fields each, 20 Hz
             row = msg
@@ -241,6 +245,8 @@ class SeriesBuilder:
         s.world_status = self._rows.get("/world_status", [])
         target = np.array(self._rows.get("/target", []), dtype=float).reshape(-1, 3)
         s.target_t, s.target_xy = target[:, 0], target[:, 1:3]
+        tracked = np.array(self._rows.get("/target_tracked", []), dtype=float).reshape(-1, 3)
+        s.tracked_target_t, s.tracked_target_xy = tracked[:, 0], tracked[:, 1:3]
         shown = "/obstacles_truth" if self.counts.get("/obstacles_truth") else "/obstacles"
         s.obstacles = [*self._snapshots[shown][0], *self._snapshots[shown][1]]
         if shown == "/obstacles_truth":
@@ -427,7 +433,13 @@ def tracking_metrics(s: RunSeries, range_max: float, period: float) -> dict[str,
         return None
     instants = ((t, s.tracked[t], s.truth_obstacles[t],
                  (float(np.interp(t, s.odom_t, s.x_c)), float(np.interp(t, s.odom_t, s.y_c)))) for t in stamps)
-    return evaluate(instants, range_max, period=period).as_dict()
+    out = evaluate(instants, range_max, period=period).as_dict()
+    truth = dict(zip(s.target_t.tolist(), s.target_xy.tolist(), strict=True))
+    errors = [math.dist(xy, truth[t]) for t, xy in zip(s.tracked_target_t.tolist(), s.tracked_target_xy.tolist(),
+                                                       strict=True) if t in truth]
+    out.update(target_estimates=len(errors), target_position_rmse_m=_finite(_rms(np.array(errors))),
+               target_error_p95_m=float(np.percentile(errors, 95)) if errors else None)
+    return out
 
 
 def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,

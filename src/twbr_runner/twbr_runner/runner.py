@@ -53,6 +53,9 @@ from twbr_sim.scenario_files import find_scenario
 # tracker_node publishes `obstacles` from the scans, as on a real robot: the planner and the controller's
 # collision monitor read what the tracker sees; the metrics and figures judge against the truth.
 TRUTH_OBSTACLES = "obstacles_truth"
+# The tracker's fused target (from target_detections) goes here, beside the world's `target` the planner
+# still follows: without a search behaviour a robot that has not yet seen its target would stand still.
+TRACKED_TARGET = "target_tracked"
 # Every topic of the contract, with its type: the recorder subscribes to these before any node starts.
 RECORDED_TOPICS = {
     "/clock": "rosgraph_msgs/msg/Clock",
@@ -73,6 +76,8 @@ RECORDED_TOPICS = {
     "cmd_vel": "geometry_msgs/msg/Twist",
     "scan": "sensor_msgs/msg/LaserScan",
     TRUTH_OBSTACLES: "twbr_msgs/msg/ObstacleArray",
+    "target_detections": "geometry_msgs/msg/PoseArray",
+    TRACKED_TARGET: "nav_msgs/msg/Odometry",
 }
 # How long the runner listens for another graph on its domain before it starts one (participants announce
 # themselves at once and then every 0.5 s: config/fastdds.xml).
@@ -212,7 +217,8 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         overrides = [a for name, value in pinned.items() for a in ("-p", f"{name}:={ros_value(value)}")]
         if lidar:  # its obstacles come once a scan: a plan at a scan's instant waits for that scan's
             overrides += ["-p", f"obstacles_period:={1.0 / rate!r}"]
-            nodes.append(NodeSpec("tracker", "twbr_tracker", "tracker_node", params_files(config, "tracker.yaml"),
+            nodes.append(NodeSpec("tracker", "twbr_tracker", "tracker_node",
+                                  [*params_files(config, "tracker.yaml"), "-r", f"target:={TRACKED_TARGET}"],
                                   recorded=("/obstacles",), env=compiled_cores()))
         nodes.append(NodeSpec("planner", "twbr_planner", "planner_node",
                               [*params_files(config, "planner.yaml"), *overrides],

@@ -66,10 +66,12 @@ def test_realtime_ticks_keep_their_schedule_but_never_catch_up_more_than_a_perio
 
 
 def test_publications_decimate_the_state_and_telemetry_topics():
-    pub = Publications(clock_rate=200.0, world_rate=20.0, tf_rate=50.0, marker_rate=5.0, scan_rate=10.0)
+    pub = Publications(clock_rate=200.0, world_rate=20.0, tf_rate=50.0, marker_rate=5.0, scan_rate=10.0,
+                       detection_rate=5.0)
     states = [pub.with_state(k * 0.005, hosting_world=True) for k in range(200)]  # 1 s of 200 Hz states
     assert sum(s.clock for s in states) == 200 and sum(s.world for s in states) == 20
     assert sum(s.scan for s in states) == 10 and all(s.world for s in states if s.scan)  # a scan goes with a world
+    assert sum(s.detections for s in states) == 5
     tele = [pub.with_state_telemetry(k * 0.005, hosting_world=True) for k in range(200)]
     assert sum(t.tf for t in tele) == 50 and sum(t.markers for t in tele) == 5
     status = [pub.status_due(k * 0.005, flags_changed=(k == 7)) for k in range(200)]

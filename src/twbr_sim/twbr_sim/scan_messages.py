@@ -1,9 +1,12 @@
-"""sensor_msgs/LaserScan and the scanner's static transform from a scan of lidar.py (the ROS side of it)."""
+"""The perception sensors' messages (the ROS side of lidar.py and target_sensor.py): sensor_msgs/LaserScan,
+geometry_msgs/PoseArray of target detections, and each sensor's static transform above base_link."""
 
 from __future__ import annotations
 
+import math
+
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Pose, PoseArray, TransformStamped
 from sensor_msgs.msg import LaserScan
 
 
@@ -24,12 +27,39 @@ def laser_scan(cfg: dict, ranges, stamp: Time) -> LaserScan:
     return msg
 
 
-def laser_transform(cfg: dict, base_frame: str, stamp: Time) -> TransformStamped:
-    """base_link -> the scanner: lidar.height up the body's axis (base_link is pitched with the body)."""
+def target_detections(cfg: dict, detection: tuple[float, float] | None, stamp: Time) -> PoseArray:
+    """A target detector's look at one instant, as geometry_msgs/PoseArray in its frame: one pose at the
+    measured range and bearing (x ahead, y left), or none when it did not see the target. An empty array
+    is a measurement too: the sensor looked, and the target was not in view."""
+    msg = PoseArray()
+    msg.header.stamp = stamp
+    msg.header.frame_id = cfg["target_sensor.frame"]
+    if detection is not None:
+        distance, bearing = detection
+        pose = Pose()
+        pose.position.x = distance * math.cos(bearing)
+        pose.position.y = distance * math.sin(bearing)
+        pose.orientation.w = 1.0
+        msg.poses = [pose]
+    return msg
+
+
+def sensor_transform(frame: str, height: float, base_frame: str, stamp: Time) -> TransformStamped:
+    """base_link -> a sensor `height` [m] up the body's axis (base_link is pitched with the body)."""
     tf = TransformStamped()
     tf.header.stamp = stamp
     tf.header.frame_id = base_frame
-    tf.child_frame_id = cfg["lidar.frame"]
-    tf.transform.translation.z = float(cfg["lidar.height"])
+    tf.child_frame_id = frame
+    tf.transform.translation.z = float(height)
     tf.transform.rotation.w = 1.0
     return tf
+
+
+def laser_transform(cfg: dict, base_frame: str, stamp: Time) -> TransformStamped:
+    """base_link -> the scanner: lidar.height up the body's axis."""
+    return sensor_transform(cfg["lidar.frame"], cfg["lidar.height"], base_frame, stamp)
+
+
+def target_sensor_transform(cfg: dict, base_frame: str, stamp: Time) -> TransformStamped:
+    """base_link -> the target detector: target_sensor.height up the body's axis."""
+    return sensor_transform(cfg["target_sensor.frame"], cfg["target_sensor.height"], base_frame, stamp)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import Quaternion, TransformStamped
+from geometry_msgs.msg import PoseArray, Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -42,7 +42,7 @@ from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
-from twbr_sim.scan_messages import laser_scan, laser_transform
+from twbr_sim.scan_messages import laser_scan, laser_transform, target_detections, target_sensor_transform
 from twbr_sim.scenario import Scenario, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
@@ -93,11 +93,17 @@ class SimNode(Node):
         self.pub_truth = (None if self.sim.ideal_sensors
                           else self.create_publisher(Odometry, "ground_truth", SENSOR_PUB_QOS))
         self.pub_tf = self.create_publisher(TFMessage, "/tf", 100)
-        self.pub_scan = None
+        self.pub_scan = self.pub_detections = None
+        static = []  # the sensors above base_link, in one latched message
         if cfg["lidar.rate"] > 0.0:
             self.pub_scan = self.create_publisher(LaserScan, "scan", SENSOR_PUB_QOS)
+            static.append(laser_transform(cfg, cfg["base_frame"], to_stamp(0)))
+        if cfg["target_sensor.rate"] > 0.0 and scenario is not None and scenario.target is not None:
+            self.pub_detections = self.create_publisher(PoseArray, "target_detections", SENSOR_PUB_QOS)
+            static.append(target_sensor_transform(cfg, cfg["base_frame"], to_stamp(0)))
+        if static:
             self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
-            self.pub_tf_static.publish(TFMessage(transforms=[laser_transform(cfg, cfg["base_frame"], to_stamp(0))]))
+            self.pub_tf_static.publish(TFMessage(transforms=static))
         self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_QOS)
         self.hosting_world = scenario is not None and cfg["host_world"]
         if self.hosting_world:
@@ -122,7 +128,8 @@ class SimNode(Node):
             self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
         self.exchange = LockstepExchange(planner_every, cfg["wait_for_first_command"])
         self.publications = Publications(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"],
-                                         cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"], cfg["lidar.rate"])
+                                         cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"], cfg["lidar.rate"],
+                                         cfg["target_sensor.rate"] if self.pub_detections is not None else 0.0)
         self.get_logger().info(
             f"{cfg['mode']} {self.ENGINE} simulation at {cfg['physics_rate']:g} Hz, state every"
             f" {self.sim.steps_per_publish} steps, scenario: {scenario.name if scenario else 'none'},"
@@ -177,6 +184,8 @@ class SimNode(Node):
         world = self.world_messages(stamp) if due.world else []
         if due.scan:
             world.append((self.pub_scan, laser_scan(self.cfg, sim.scan(), stamp)))
+        if due.detections:
+            world.append((self.pub_detections, target_detections(self.cfg, sim.target_detection(), stamp)))
         s = sim.state
         sample = sim.sense()
         e = sample.encoders

@@ -14,7 +14,7 @@ import numpy as np
 from twbr_common.guard import INPUT_SPECS, TORQUE_LIMIT, InputGuard, Verdict, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
 from twbr_sim import dynamics as dyn
-from twbr_sim import lidar
+from twbr_sim import lidar, target_sensor
 from twbr_sim.encoders import ENCODER_SPECS, J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
 from twbr_sim.encoders import new_memory as new_encoder_memory
@@ -24,12 +24,14 @@ from twbr_sim.lidar import LIDAR_SPECS
 from twbr_sim.noise import new_generator
 from twbr_sim.robot_params import P_R, P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario
+from twbr_sim.target_sensor import TARGET_SENSOR_SPECS
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
 from twbr_sim.traction import TRACTION_SPECS, traction_flags, wheel_loads
 from twbr_sim.world import Assessment, World
 
 # What a batch study may set of the robot's sensors and traction (SIM_SPECS has them all).
-SENSOR_SPECS: tuple[ParamSpec, ...] = (*IMU_SPECS, *ENCODER_SPECS, *TRACTION_SPECS, *LIDAR_SPECS)
+SENSOR_SPECS: tuple[ParamSpec, ...] = (*IMU_SPECS, *ENCODER_SPECS, *TRACTION_SPECS, *LIDAR_SPECS,
+                                       *TARGET_SENSOR_SPECS)
 
 SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("physics_rate", 1000.0, "rate of the RK4 integration of dynamics and motors", "Hz", 10.0, 100000.0),
@@ -137,6 +139,9 @@ class Simulator:
         self.lidar_rate = settings["lidar.rate"]
         self._lidar_s = lidar.settings_vector(settings)
         self._lidar_generator = new_generator(seed, lidar.LIDAR_STREAM)
+        self.target_sensor_rate = settings["target_sensor.rate"]
+        self._target_s = target_sensor.settings_vector(settings)
+        self._target_generator = new_generator(seed, target_sensor.TARGET_SENSOR_STREAM)
         self.traction = TractionTally()
         self._sample: tuple[int, SensorSample] | None = None
         sc = scenario
@@ -160,6 +165,8 @@ class Simulator:
         twin.assess()
         if twin.lidar_rate > 0.0:
             twin.scan()
+        if twin.target_sensor_rate > 0.0:
+            twin.target_detection()
 
     def scan(self) -> np.ndarray:
         """One LiDAR scan started at the current state (lidar.py): ranges [m] by beam, the device's noise
@@ -174,6 +181,22 @@ class Simulator:
                         s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
         lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)
         return ranges
+
+    def target_detection(self) -> tuple[float, float] | None:
+        """The target detector's measurement at the current state (target_sensor.py): (range [m], bearing
+        [rad] from the heading), or None when it does not see the target (none, out of view, hidden, dropped)."""
+        target = self.world.target() if self.world is not None else None
+        if target is None:
+            return None
+        s = self.state
+        obstacles = self.world.obstacles()
+        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
+        radii = np.array([o.radius for o in obstacles], dtype=float)
+        out = np.empty(2)
+        if not target_sensor.measure_target(self._target_s, self._target_generator, s[dyn.S_XC], s[dyn.S_YC],
+                                            s[dyn.S_PSI], s[dyn.S_TH], target.x, target.y, positions, radii, out):
+            return None
+        return float(out[0]), float(out[1])
 
     @property
     def ideal_sensors(self) -> bool:

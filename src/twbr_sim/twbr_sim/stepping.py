@@ -120,6 +120,7 @@ class StateTopics(NamedTuple):
     clock: bool
     world: bool
     scan: bool
+    detections: bool
 
 
 class StateTelemetryTopics(NamedTuple):
@@ -128,22 +129,24 @@ class StateTelemetryTopics(NamedTuple):
 
 
 class Publications:
-    """Which decimated topics go out at sim time t: /clock, the world and the scan with the state (before
-    odom: a planner, or a tracker feeding one, has them for the instant it answers), /tf, sim_status (also
+    """Which decimated topics go out at sim time t: /clock, the world, the scan and the target detections
+    with the state (before odom: a planner, or a tracker feeding one, has them for the instant it answers), /tf, sim_status (also
     whenever a flag changes) and the markers with telemetry."""
 
     def __init__(self, clock_rate: float, world_rate: float, tf_rate: float, marker_rate: float,
-                 scan_rate: float = 0.0) -> None:
+                 scan_rate: float = 0.0, detection_rate: float = 0.0) -> None:
         self._clock = Decimator(clock_rate)
         self._world = Decimator(world_rate)
         self._tf = Decimator(tf_rate)
         self._status = Decimator(world_rate)
         self._markers = Decimator(marker_rate)
         self._scan = Decimator(scan_rate) if scan_rate > 0.0 else None  # 0: no scan topic
+        self._detections = Decimator(detection_rate) if detection_rate > 0.0 else None  # 0: no target sensor
 
     def with_state(self, t: float, hosting_world: bool) -> StateTopics:
         clock = self._clock.due(t)
-        return StateTopics(clock, hosting_world and self._world.due(t), self._scan is not None and self._scan.due(t))
+        return StateTopics(clock, hosting_world and self._world.due(t), self._scan is not None and self._scan.due(t),
+                           self._detections is not None and self._detections.due(t))
 
     def with_state_telemetry(self, t: float, hosting_world: bool) -> StateTelemetryTopics:
         return StateTelemetryTopics(self._tf.due(t), hosting_world and self._markers.due(t))

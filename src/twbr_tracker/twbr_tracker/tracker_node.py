@@ -1,12 +1,17 @@
-"""tracker_node: obstacles from a 2D LiDAR, for the planner (issue 36).
+"""tracker_node: obstacles from a 2D LiDAR and the target from a target detector, for the planner (issue 36).
 
-Subscribes `scan` (sensor_msgs/LaserScan) and `odom` (the robot's pose and pitch); publishes `obstacles`
-(twbr_msgs/ObstacleArray in the odom frame, stamped with the scan's stamp): the confirmed tracks with their
-velocities and a wall's chain of discs. A scan is placed with the first odom stamped at or after its stamp
-(a simulator sends the scan of an instant before its odom; a robot's odom comes at 100-200 Hz), waiting for
-it if need be, so the tracks are the same however the two streams interleave: a lockstep run is the same
-loaded or idle. A scan with no such odom within `odom_timeout` of it is dropped (and said so), never placed
-at a stale pose; a scan not newer than the last one (a simulator offering its first state again) is skipped.
+Subscribes `scan` (sensor_msgs/LaserScan), `target_detections` (geometry_msgs/PoseArray in the detector's
+frame: one pose where it sees the target, none where it looked and did not) and `odom` (the robot's pose
+and pitch); publishes `obstacles` (twbr_msgs/ObstacleArray in odom, stamped with the scan's stamp: the
+confirmed tracks with their velocities and a wall's chain of discs) and `target` (nav_msgs/Odometry in
+odom, stamped with each look: the fused target, its prediction while it is hidden, with the position's
+variance in the pose covariance; none before the first sighting).
+
+Each scan and each look is placed with the first odom stamped at or after its stamp (a simulator sends an
+instant's scan and look before its odom; a robot's odom comes at 100-200 Hz), waiting for it if need be,
+so the output is the same however the streams interleave: a lockstep run is the same loaded or idle. One
+with no such odom within `odom_timeout` of it is dropped (and said so), never placed at a stale pose; one
+not newer than the last of its stream (a simulator offering its first state again) is skipped.
 
     ros2 run twbr_tracker tracker_node --ros-args --params-file config/tracker.yaml
 """
@@ -17,11 +22,12 @@ import math
 import time
 
 import numpy as np
+from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
 
-from twbr_common.geometry import rpy_from_quaternion
+from twbr_common.geometry import quaternion_from_rpy, rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
@@ -29,11 +35,13 @@ from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
 from twbr_sim.world_messages import obstacles_message
+from twbr_tracker.target import TARGET_SPECS, TargetFilter
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
 NODE_SPECS: tuple[ParamSpec, ...] = (
     *TRACKER_SPECS,
-    ParamSpec("odom_timeout", 0.2, "a scan whose first odom at or after it comes later than this is dropped", "s",
+    *TARGET_SPECS,
+    ParamSpec("odom_timeout", 0.2, "a scan or look whose first odom at or after it comes later than this is dropped", "s",
               0.001, 10.0),
     ParamSpec("odom_frame", "odom", "frame of the published obstacles"),
 )
@@ -46,30 +54,38 @@ class TrackerNode(Node):
         self.cfg = cfg
         self.core = Tracker(cfg)
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
+        self.target = TargetFilter(cfg)
         self.inputs = input_streams(self)
         self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
         self._pose: tuple[float, ...] | None = None  # newest odom: stamp, x, y, yaw, speed, yaw rate, pitch
-        self._waiting: LaserScan | None = None  # a scan newer than every odom yet: placed by the next one
-        self._last_scan = -math.inf  # stamp of the last scan tracked
+        # per stream: a message newer than every odom yet (placed by the next one), and the last one's stamp
+        self._waiting: dict[str, LaserScan | PoseArray] = {}
+        self._last: dict[str, float] = {}
         self.latencies = LatencyRecord()  # scan and its odom in -> obstacles published, in constant memory
         self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
+        self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
+        self._handlers = {"scan": self._track, "target_detections": self._follow}
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
-        self.create_subscription(LaserScan, "scan", self._on_scan, SENSOR_SUB_QOS)
+        self.create_subscription(LaserScan, "scan", lambda m: self._on_input("scan", m), SENSOR_SUB_QOS)
+        self.create_subscription(PoseArray, "target_detections", lambda m: self._on_input("target_detections", m),
+                                 SENSOR_SUB_QOS)
         self.get_logger().info(
-            f"tracking scan -> obstacles in {cfg['odom_frame']}: gate {cfg['tracking.gate']:g} m, confirmed after"
-            f" {cfg['tracking.confirm_hits']} scans, dropped after {cfg['tracking.max_misses']} misses"
+            f"tracking scan -> obstacles and target_detections -> target in {cfg['odom_frame']}: gate"
+            f" {cfg['tracking.gate']:g} m, confirmed after {cfg['tracking.confirm_hits']} scans, dropped after"
+            f" {cfg['tracking.max_misses']} misses or {cfg['tracking.max_coast']:g} s hidden"
         )
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _restart(self) -> None:
-        self.get_logger().warning("clock jumped back: every track is dropped")
+        self.get_logger().warning("clock jumped back: every track and the target are dropped")
         self.core.reset()
+        self.target.reset()
         self._pose = None
-        self._waiting = None
-        self._last_scan = -math.inf
+        self._waiting.clear()
+        self._last.clear()
 
     def _on_odom(self, msg: Odometry) -> None:
         p, o = msg.pose.pose.position, msg.pose.pose.orientation
@@ -79,40 +95,53 @@ class TrackerNode(Node):
             return
         _roll, pitch, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
         self._pose = (stamp, p.x, p.y, yaw, v, w, pitch)
-        if self._waiting is not None and stamp >= stamp_seconds(self._waiting.header.stamp):
-            scan, self._waiting = self._waiting, None
-            self._track(scan)
+        for stream, waiting in list(self._waiting.items()):
+            if stamp >= stamp_seconds(waiting.header.stamp):
+                del self._waiting[stream]
+                self._place(stream, waiting)
 
-    def _on_scan(self, msg: LaserScan) -> None:
+    def _on_input(self, stream: str, msg: LaserScan | PoseArray) -> None:
         t = stamp_seconds(msg.header.stamp)
-        if t <= self._last_scan:
+        if t <= self._last.get(stream, -math.inf):
             return
-        if self._waiting is not None and stamp_seconds(self._waiting.header.stamp) != t:  # not an offer again
-            self.get_logger().warning(f"scan at t = {stamp_seconds(self._waiting.header.stamp):.3f} s dropped: no"
-                                      " odom at or after it before the next scan", throttle_duration_sec=2.0)
+        waiting = self._waiting.pop(stream, None)
+        if waiting is not None and stamp_seconds(waiting.header.stamp) != t:  # not the same offered again
+            self.get_logger().warning(f"{stream} at t = {stamp_seconds(waiting.header.stamp):.3f} s dropped: no"
+                                      " odom at or after it before the next one", throttle_duration_sec=2.0)
         if self._pose is not None and self._pose[0] >= t:
-            self._waiting = None
-            self._track(msg)
+            self._place(stream, msg)
         else:
-            self._waiting = msg
+            self._waiting[stream] = msg
 
-    def _track(self, msg: LaserScan) -> None:
-        received = time.perf_counter()
+    def _place(self, stream: str, msg: LaserScan | PoseArray) -> None:
+        """`msg` with the robot's pose at its stamp (the odom's, carried back along its twist)."""
         t = stamp_seconds(msg.header.stamp)
         stamp, x, y, yaw, v, w, pitch = self._pose
         if stamp - t > self.cfg["odom_timeout"]:
-            self.get_logger().warning(f"scan at t = {t:.3f} s dropped: no odom within {self.cfg['odom_timeout']:g} s"
-                                      " of it", throttle_duration_sec=2.0)
+            self.get_logger().warning(f"{stream} at t = {t:.3f} s dropped: no odom within"
+                                      f" {self.cfg['odom_timeout']:g} s of it", throttle_duration_sec=2.0)
             return
-        self._last_scan = t
-        # the pose carried back to the scan's first beam along the odom's twist
+        self._last[stream] = t
         dt = t - stamp
-        x, y, yaw = x + v * dt * math.cos(yaw), y + v * dt * math.sin(yaw), yaw + w * dt
+        pose = (x + v * dt * math.cos(yaw), y + v * dt * math.sin(yaw), yaw + w * dt, v, w, pitch)
+        self._handlers[stream](msg, t, pose)
+
+    def _track(self, msg: LaserScan, t: float, pose: tuple[float, ...]) -> None:
+        received = time.perf_counter()
         ranges = np.asarray(msg.ranges, dtype=np.float64)
-        obstacles = self.core.step(t, ranges, msg.angle_min, msg.angle_increment, msg.time_increment, x, y, yaw, v, w,
-                                   pitch)
+        obstacles = self.core.step(t, ranges, msg.angle_min, msg.angle_increment, msg.time_increment, *pose)
         self.pub_obstacles.publish(obstacles_message(obstacles, msg.header.stamp, self.cfg["odom_frame"]))
         self.latencies.add(time.perf_counter() - received)
+
+    def _follow(self, msg: PoseArray, t: float, pose: tuple[float, ...]) -> None:
+        x, y, yaw, _v, _w, pitch = pose
+        if msg.poses:  # the detector saw it (the nearest, if it reports more than one)
+            p = min((q.position for q in msg.poses), key=lambda q: math.hypot(q.x, q.y))
+            if math.isfinite(p.x) and math.isfinite(p.y):
+                self.target.measure(t, math.hypot(p.x, p.y), math.atan2(p.y, p.x), x, y, yaw, pitch)
+        estimate = self.target.estimate(t)
+        if estimate is not None:
+            self.pub_target.publish(target_odometry(estimate, msg.header.stamp, self.cfg["odom_frame"]))
 
     def destroy_node(self) -> None:
         self.get_logger().info(self.report())
@@ -123,6 +152,23 @@ class TrackerNode(Node):
             return "no scan tracked"
         return (f"{self.latencies.count} scans tracked; scan -> obstacles median"
                 f" {self.latencies.quantile_ms(0.5):.3f} ms, p99 {self.latencies.quantile_ms(0.99):.3f} ms")
+
+
+def target_odometry(estimate, stamp, frame: str) -> Odometry:
+    """The fused target as the planner reads a target: pose (heading along its velocity), forward speed,
+    and the position's variance on the pose covariance's x and y."""
+    msg = Odometry()
+    msg.header.stamp = stamp
+    msg.header.frame_id = frame
+    msg.child_frame_id = "target"
+    msg.pose.pose.position.x, msg.pose.pose.position.y = estimate.x, estimate.y
+    o = msg.pose.pose.orientation
+    o.x, o.y, o.z, o.w = quaternion_from_rpy(0.0, 0.0, math.atan2(estimate.vy, estimate.vx))
+    msg.twist.twist.linear.x = math.hypot(estimate.vx, estimate.vy)
+    covariance = [0.0] * 36
+    covariance[0] = covariance[7] = estimate.position_variance
+    msg.pose.covariance = covariance
+    return msg
 
 
 def main(args: list[str] | None = None) -> int:

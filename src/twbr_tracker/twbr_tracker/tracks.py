@@ -102,8 +102,9 @@ def new_tracks(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
-def _predict(s, track, cov, t):
-    """Track and covariance from their instant to t: x += v dt, P = F P F' + Q."""
+def kalman_predict(track, cov, t, q):
+    """Track and covariance from their instant to t, white-noise acceleration of density q: x += v dt,
+    P = F P F' + Q."""
     dt = t - track[TR_T]
     if dt <= 0.0:
         return
@@ -114,7 +115,6 @@ def _predict(s, track, cov, t):
     f[0, 2] = dt
     f[1, 3] = dt
     p = f @ cov @ f.T
-    q = s[TS_ACCELERATION_NOISE]
     for axis in range(2):
         p[axis, axis] += q * dt ** 3 / 3.0
         p[axis, axis + 2] += q * dt ** 2 / 2.0
@@ -124,13 +124,11 @@ def _predict(s, track, cov, t):
 
 
 @kernel
-def _update(s, track, cov, zx, zy, radius, clipped):
-    """The Kalman update on a measured centre (zx, zy) [m]; the radius is smoothed (not from a clipped disc,
-    whose centre is also trusted less)."""
-    r = (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2
+def kalman_update(track, cov, zx, zy, variance):
+    """The Kalman update on a measured position (zx, zy) [m] of isotropic `variance` [m²]."""
     innovation_cov = cov[:2, :2].copy()
-    innovation_cov[0, 0] += r
-    innovation_cov[1, 1] += r
+    innovation_cov[0, 0] += variance
+    innovation_cov[1, 1] += variance
     gain = np.ascontiguousarray(cov[:, :2]) @ np.linalg.inv(innovation_cov)
     ex = zx - track[TR_X]
     ey = zy - track[TR_Y]
@@ -140,6 +138,13 @@ def _update(s, track, cov, zx, zy, radius, clipped):
     h[0, 0] = 1.0
     h[1, 1] = 1.0
     cov[:, :] = (np.eye(4) - gain @ h) @ cov
+
+
+@kernel
+def _update(s, track, cov, zx, zy, radius, clipped):
+    """A disc's centre (zx, zy) [m] into its track; the radius is smoothed (not from a clipped disc, whose
+    centre is also trusted less)."""
+    kalman_update(track, cov, zx, zy, (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2)
     if not clipped:
         track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius
 
@@ -192,7 +197,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     marked for this scan, mark_occluded); returns the new (n, next_id). Rows move: a dropped track's row
     takes the last one's."""
     for j in range(n):
-        _predict(s, tracks[j], cov[j], t)
+        kalman_predict(tracks[j], cov[j], t, s[TS_ACCELERATION_NOISE])
     compact = np.empty(n_discs, dtype=np.int64)
     m = 0
     for d in range(n_discs):
