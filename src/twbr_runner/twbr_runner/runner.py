@@ -77,6 +77,7 @@ RECORDED_TOPICS = {
     "scan": "sensor_msgs/msg/LaserScan",
     TRUTH_OBSTACLES: "twbr_msgs/msg/ObstacleArray",
     "target_detections": "geometry_msgs/msg/PoseArray",
+    "tracker_markers": "visualization_msgs/msg/MarkerArray",
     TRACKED_TARGET: "nav_msgs/msg/Odometry",
 }
 # How long the runner listens for another graph on its domain before it starts one (participants announce

@@ -3,7 +3,8 @@
 Subscribes `scan` (sensor_msgs/LaserScan), `target_detections` (geometry_msgs/PoseArray in the detector's
 frame: one pose where it sees the target, none where it looked and did not) and `odom` (the robot's pose
 and pitch); publishes `obstacles` (twbr_msgs/ObstacleArray in odom, stamped with the scan's stamp: the
-confirmed tracks with their velocities and a wall's chain of discs) and `target` (nav_msgs/Odometry in
+confirmed tracks with their velocities and a wall's chain of discs; the same as cylinders and arrows on
+`tracker_markers` for RViz) and `target` (nav_msgs/Odometry in
 odom, stamped with each look: the fused target, its prediction while it is hidden, with the position's
 variance in the pose covariance; none before the first sighting).
 
@@ -26,6 +27,7 @@ from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
+from visualization_msgs.msg import Marker, MarkerArray
 
 from twbr_common.geometry import quaternion_from_rpy, rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT
@@ -34,7 +36,7 @@ from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
-from twbr_sim.world_messages import obstacles_message
+from twbr_sim.world_messages import obstacles_message, world_markers
 from twbr_tracker.target import TARGET_SPECS, TargetFilter
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
@@ -65,6 +67,7 @@ class TrackerNode(Node):
         self.latencies = LatencyRecord()  # scan and its odom in -> obstacles published, in constant memory
         self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
         self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "tracker_markers", WORLD_QOS)
         self._handlers = {"scan": self._track, "target_detections": self._follow}
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_subscription(LaserScan, "scan", lambda m: self._on_input("scan", m), SENSOR_SUB_QOS)
@@ -132,6 +135,10 @@ class TrackerNode(Node):
         obstacles = self.core.step(t, ranges, msg.angle_min, msg.angle_increment, msg.time_increment, *pose)
         self.pub_obstacles.publish(obstacles_message(obstacles, msg.header.stamp, self.cfg["odom_frame"]))
         self.latencies.add(time.perf_counter() - received)
+        if self.pub_markers.get_subscription_count():  # built only while RViz or a recorder listens
+            markers = world_markers(None, obstacles, 0.0, msg.header.stamp, self.cfg["odom_frame"])
+            markers.markers.insert(0, Marker(action=Marker.DELETEALL))  # tracks come and go
+            self.pub_markers.publish(markers)
 
     def _follow(self, msg: PoseArray, t: float, pose: tuple[float, ...]) -> None:
         x, y, yaw, _v, _w, pitch = pose

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 pytest.importorskip("rerun", reason="rerun-sdk is not installed (the viewer is optional)")
@@ -113,6 +114,27 @@ def test_a_moving_obstacle_is_drawn_again_and_a_removed_one_disappears():
     assert first.labels.as_arrow_array().to_pylist() == ["1", "2"] and moved.labels is None  # same ids
     assert removed.positions.as_arrow_array().to_pylist() == [[2.0, 1.0, 0.0]]
     assert removed.labels.as_arrow_array().to_pylist() == ["1"]
+
+
+def test_with_the_lidar_the_scan_the_tracks_and_the_truth_are_drawn_apart():
+    sink = Sink()
+    view = RunView(sink.log, sink.set_time)
+    view.scan(0.0, np.array([1.0]), 0.0, 0.1)  # before any pose: nowhere to draw it from
+    assert not sink.paths("map/scan")
+    view.odom(0.0, 1.0, 2.0, math.pi / 2)
+    ranges = np.array([2.0, math.inf, 3.0, -math.inf])  # REP 117's infinities are no points
+    view.scan(0.1, ranges, 0.0, math.pi / 2)
+    ((_t, scan),) = sink.paths("map/scan")
+    # facing +y: the first beam 2 m ahead, the third 3 m behind
+    assert np.allclose(scan.positions.as_arrow_array().to_pylist(), [[1.0, 4.0, 0.2], [1.0, -1.0, 0.2]])
+    view.obstacle_list(0.1, [(1, 2.0, 1.0, 0.5, 0.0, 0.3)])  # the tracks: what the planner avoids
+    view.obstacle_list(0.1, [(7, 2.05, 1.0, 0.5, 0.0, 0.3)], "map/obstacles_truth")
+    assert view.obstacles == [(1, 2.0, 1.0, 0.5, 0.0, 0.3)]  # the field is drawn round the tracks
+    ((_t, truth),) = sink.paths("map/obstacles_truth")
+    assert truth.labels.as_arrow_array().to_pylist() == ["7"]
+    view.tracked_target(0.1, 5.0, 5.0)
+    ((_t, target),) = sink.paths("map/target_tracked")
+    assert np.allclose(target.positions.as_arrow_array().to_pylist(), [[5.0, 5.0, 0.15]])
 
 
 def test_the_total_force_arrow_points_along_the_force_and_has_a_fixed_length():

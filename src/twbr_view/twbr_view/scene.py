@@ -22,6 +22,9 @@ from twbr_planner.apf import Obstacles, potential  # at start-up: it loads numba
 ROBOT_RGB = (230, 40, 40)
 TARGET_RGB = (40, 200, 60)
 OBSTACLE_RGB = (200, 200, 200)
+TRUTH_RGB = (110, 110, 110)  # the world's own obstacles, beside what the tracker sees (--perception lidar)
+SCAN_RGB = (255, 170, 0)
+TRACKED_TARGET_RGB = (150, 255, 150)
 FORCE_RGB = {"attractive": (0, 200, 255), "repulsive": (255, 150, 0), "total": (255, 255, 255)}
 ARROW_LENGTH = 1.5  # [m] of the total force's arrow (the others to its scale, capped at twice that)
 FIELD_GRID = 60  # samples per axis of the potential floor
@@ -101,8 +104,10 @@ class RunView:
         self.pose_period = pose_period
         self.path_period = path_period
         self.robot_xy: tuple[float, float] | None = None
+        self.robot_yaw = 0.0
         self.target_xy: tuple[float, float] | None = None
-        self.obstacles: list[tuple[int, float, float, float, float, float]] = []
+        self.obstacles: list[tuple[int, float, float, float, float, float]] = []  # what the planner avoids
+        self._drawn: dict[str, list] = {}  # obstacle lists as last drawn, by entity
         self.robot_path = Trail(path_spacing)
         self.target_path = Trail(path_spacing)
         self.gains: dict[str, float] | None = None
@@ -124,6 +129,10 @@ class RunView:
                 ("map/target", rr.Points3D.from_fields(radii=[0.15], colors=[TARGET_RGB])),
                 ("map/obstacles", rr.Points3D.from_fields(colors=[OBSTACLE_RGB])),
                 ("map/obstacles/velocity", rr.Arrows3D.from_fields(colors=[OBSTACLE_RGB])),
+                ("map/obstacles_truth", rr.Points3D.from_fields(colors=[TRUTH_RGB])),
+                ("map/obstacles_truth/velocity", rr.Arrows3D.from_fields(colors=[TRUTH_RGB])),
+                ("map/scan", rr.Points3D.from_fields(radii=[0.02], colors=[SCAN_RGB])),
+                ("map/target_tracked", rr.Points3D.from_fields(radii=[0.1], colors=[TRACKED_TARGET_RGB])),
                 ("map/target_path", rr.LineStrips3D.from_fields(colors=[TARGET_RGB])),
                 ("map/robot/detection_range", rr.LineStrips3D.from_fields(colors=[(120, 120, 255)])),
                 ("map/forces", rr.Arrows3D.from_fields(colors=list(FORCE_RGB.values()), labels=list(FORCE_RGB)))):
@@ -148,6 +157,7 @@ class RunView:
     # --- the map -----------------------------------------------------------------------------------
     def odom(self, t: float, x: float, y: float, yaw: float) -> None:
         self.robot_xy = (x, y)
+        self.robot_yaw = yaw
         self.robot_path.extend(x, y)
         if not self._due("pose", t, self.pose_period):  # a screen shows ~30 frames a second
             return
@@ -167,22 +177,45 @@ class RunView:
         self.log("map/target", self.rr.Points3D.from_fields(positions=[[x, y, 0.1]]))
         self._path("map/target_path", self.target_path, t)
 
-    def obstacle_list(self, t: float, obstacles: list[tuple[int, float, float, float, float, float]]) -> None:
+    def obstacle_list(self, t: float, obstacles: list[tuple[int, float, float, float, float, float]],
+                      entity: str = "map/obstacles") -> None:
         """(id, x, y, vx, vy, radius) of every obstacle now: a disc each (a sphere seen from above), labelled
-        with its id, and its velocity; drawn again only when something changed."""
-        if obstacles == self.obstacles:
+        with its id, and its velocity; drawn again only when something changed. `map/obstacles` is what the
+        planner avoids (the world's, or the tracker's), `map/obstacles_truth` the world's beside the tracks."""
+        if entity == "map/obstacles":
+            self.obstacles = obstacles
+        before = self._drawn.get(entity, [])
+        if obstacles == before:
             return
         rr = self.rr
         self._set_time(t)
         ids = [str(i) for i, *_ in obstacles]
-        relabel = ids != [str(i) for i, *_ in self.obstacles]
-        self.obstacles = obstacles
+        relabel = ids != [str(i) for i, *_ in before]
+        self._drawn[entity] = obstacles
         state = np.array([o[1:] for o in obstacles], dtype=float).reshape(-1, 5)  # x, y, vx, vy, radius
         centres = np.column_stack([state[:, :2], np.zeros(len(state))])
-        self.log("map/obstacles", rr.Points3D.from_fields(positions=centres, radii=state[:, 4],
-                                                          labels=ids if relabel else None))
-        self.log("map/obstacles/velocity", rr.Arrows3D.from_fields(
+        self.log(entity, rr.Points3D.from_fields(positions=centres, radii=state[:, 4],
+                                                 labels=ids if relabel else None))
+        self.log(f"{entity}/velocity", rr.Arrows3D.from_fields(
             origins=centres + np.array([0.0, 0.0, 0.05]), vectors=np.column_stack([state[:, 2:4], np.zeros(len(state))])))
+
+    def scan(self, t: float, ranges: np.ndarray, angle_min: float, angle_increment: float) -> None:
+        """A LiDAR scan's returns as points on the map, from the robot's last pose (its lean and the
+        scan's turn left out: a picture of what it sees, not the tracker's geometry)."""
+        if self.robot_xy is None:
+            return
+        self._set_time(t)
+        bearings = self.robot_yaw + angle_min + angle_increment * np.arange(len(ranges))
+        hit = np.isfinite(ranges)
+        r = ranges[hit]
+        points = np.column_stack([self.robot_xy[0] + r * np.cos(bearings[hit]),
+                                  self.robot_xy[1] + r * np.sin(bearings[hit]), np.full(len(r), 0.2)])
+        self.log("map/scan", self.rr.Points3D.from_fields(positions=points))
+
+    def tracked_target(self, t: float, x: float, y: float) -> None:
+        """The tracker's fused target (from target_detections), beside the world's."""
+        self._set_time(t)
+        self.log("map/target_tracked", self.rr.Points3D.from_fields(positions=[[x, y, 0.15]]))
 
     def planner(self, t: float, msg: Any) -> None:
         """planner_state: force arrows, detection range, mode, and the gains the field is drawn with."""
@@ -263,9 +296,14 @@ def feed(view: RunView, topic: str, msg: Any) -> None:
     elif name == "target":
         p = msg.pose.pose.position
         view.target(stamp_of(msg), p.x, p.y)
-    elif name == "obstacles":
+    elif name in ("obstacles", "obstacles_truth"):
         view.obstacle_list(stamp_of(msg), [(int(o.id), o.position.x, o.position.y, o.velocity.x, o.velocity.y,
-                                            o.radius) for o in msg.obstacles])
+                                            o.radius) for o in msg.obstacles], f"map/{name}")
+    elif name == "scan":
+        view.scan(stamp_of(msg), np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment)
+    elif name == "target_tracked":
+        p = msg.pose.pose.position
+        view.tracked_target(stamp_of(msg), p.x, p.y)
     elif name == "planner_state":
         view.planner(stamp_of(msg), msg)
     elif name == "controller_state":
@@ -278,6 +316,9 @@ VIEWED_TOPICS = {
     "odom": "nav_msgs/msg/Odometry",
     "target": "nav_msgs/msg/Odometry",
     "obstacles": "twbr_msgs/msg/ObstacleArray",
+    "obstacles_truth": "twbr_msgs/msg/ObstacleArray",
+    "scan": "sensor_msgs/msg/LaserScan",
+    "target_tracked": "nav_msgs/msg/Odometry",
     "planner_state": "twbr_msgs/msg/PlannerState",
     "controller_state": "twbr_msgs/msg/ControllerState",
     "joint_states": "sensor_msgs/msg/JointState",
