@@ -18,9 +18,11 @@ import mujoco
 import numpy as np
 
 from twbr_common.params import ConfigError, defaults
+from twbr_mujoco.lidar_scene import LidarScene
 from twbr_mujoco.model import CHASSIS, LEFT_JOINT, LEFT_TYRE, LEFT_WHEEL, MUJOCO_SPECS, RIGHT_JOINT, RIGHT_TYRE, RIGHT_WHEEL, mjcf
 from twbr_mujoco.motor import advance_current
 from twbr_sim import dynamics as dyn
+from twbr_sim import lidar
 from twbr_sim.encoders import J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
 from twbr_sim.imu import N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, RD_ROLL, RD_YAW
@@ -69,6 +71,7 @@ class MujocoSimulator(Simulator):
         self._gyro = m.sensor_adr[m.sensor("gyro").id]
         self._accel = m.sensor_adr[m.sensor("accelerometer").id]
         self.slip_speed = settings["mujoco.slip_speed"]
+        self.lidar_scene = LidarScene()
         self.roll = 0.0
         self.spin_rates = (0.0, 0.0)  # wheel rates about the axle, absolute (gamma dot) [rad/s]
         s = self.state
@@ -147,6 +150,20 @@ class MujocoSimulator(Simulator):
         s[dyn.S_GL] = d.qpos[hq[0]] + pitch
         s[dyn.S_GR] = d.qpos[hq[1]] + pitch
         self.spin_rates = (d.qvel[hv[0]] + wy, d.qvel[hv[1]] + wy)
+
+    def scan(self) -> np.ndarray:
+        """One LiDAR scan started at the current state, cast by MuJoCo's ray tracer from the chassis' own pose
+        (lidar_scene.py), with the device's noise and dropouts."""
+        s, d = self.state, self.data
+        obstacles = self.world.obstacles() if self.world is not None else []
+        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
+        velocities = np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2)
+        radii = np.array([o.radius for o in obstacles], dtype=float)
+        ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
+        self.lidar_scene.cast(self._lidar_s, d.xpos[self._chassis], d.xmat[self._chassis].reshape(3, 3),
+                              s[dyn.S_XD], s[dyn.S_PSID], positions, velocities, radii, ranges)
+        lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)
+        return ranges
 
     def derivative(self) -> np.ndarray:
         """Not defined for a multibody state: the accelerations the IMU needs come from MuJoCo's sensors."""
