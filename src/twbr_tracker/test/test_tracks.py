@@ -124,3 +124,24 @@ def test_the_same_scans_give_the_same_tracks(seed):
     a = [c for _t, c, _p, _v in run([(4.0, -2.0, 0.0, 0.6, 0.3)], 2.0, seed=seed)]
     b = [c for _t, c, _p, _v in run([(4.0, -2.0, 0.0, 0.6, 0.3)], 2.0, seed=seed)]
     assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_posts_seen_from_a_driving_robot_are_published_still():
+    """A robot driving past two posts at 0.5 m/s: their tracks' filter velocities are noise of the moving
+    view, and the tracker publishes them still (static: slower than tracking.moving_speed)."""
+    from twbr_tracker.tracker import TRACKER_SPECS, Tracker
+
+    lidar_cfg = defaults(LIDAR_SPECS)
+    ls = lidar_vector(lidar_cfg)
+    g = new_generator(3, LIDAR_STREAM)
+    tracker = Tracker(defaults(TRACKER_SPECS))
+    posts = np.array([[3.0, 1.0], [5.0, -1.2]])
+    published = []
+    for k in range(60):
+        t, x = k / RATE, 0.05 * k
+        ranges = np.empty(360)
+        cast_scan(ls, x, 0.0, 0.0, 0.0, 0.5, 0.0, AXLE, posts, np.zeros((2, 2)), np.array([0.3, 0.3]), ranges)
+        scan_noise(ls, g, ranges)
+        published += tracker.step(t, ranges, -math.pi, math.radians(1.0), 0.1 / 360, x, 0.0, 0.0, 0.5, 0.0, 0.0)
+    assert len(published) > 80  # both posts, tracked from their third scan
+    assert all(o.vx == 0.0 and o.vy == 0.0 for o in published)

@@ -1,7 +1,9 @@
 """Tracks of the compact discs a scan shows (detection.py): a constant-velocity Kalman filter each, matched
 to the next scan's discs by the Hungarian method on a gated distance, born from an unmatched disc,
 confirmed after `confirm_hits` matches, dropped after `max_misses` scans without one (a tentative track at
-its first miss), and called moving above `moving_speed`.
+its first miss), and called moving above `moving_speed` (static again below half of it). A static track is
+published still (velocity 0): the filter's velocity of a post seen from a moving robot is noise, and a
+planner would evade it as if it walked.
 
 A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
 closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
@@ -39,7 +41,8 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.position_noise", 0.1, "std of a disc centre as detection measures it", "m", 0.0, 5.0,
               low_open=True),
     ParamSpec("tracking.initial_speed_std", 1.0, "std of a new track's velocity", "m/s", 0.0, 100.0, low_open=True),
-    ParamSpec("tracking.moving_speed", 0.15, "a track faster than this is moving, slower is static", "m/s", 0.0,
+    ParamSpec("tracking.moving_speed", 0.15, "a track faster than this is moving (published with its velocity);"
+              " below half of it static again (published still)", "m/s", 0.0,
               10.0),
     ParamSpec("tracking.max_tracks", 64, "tracks kept at once (the oldest tentative ones give way)", "", 1, 10000),
     ParamSpec("tracking.max_coast", 2.0, "an occluded confirmed track coasts on its prediction this long after"
@@ -229,7 +232,12 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
                 tracks[j, TR_CONFIRMED] = 1.0
         elif tracks[j, TR_OCCLUDED] == 0.0 or tracks[j, TR_CONFIRMED] == 0.0:
             tracks[j, TR_MISSES] += 1.0
-        tracks[j, TR_MOVING] = 1.0 if math.hypot(tracks[j, TR_VX], tracks[j, TR_VY]) > s[TS_MOVING_SPEED] else 0.0
+        # static / moving, with hysteresis: moving above moving_speed, static again below half of it
+        speed = math.hypot(tracks[j, TR_VX], tracks[j, TR_VY])
+        if speed > s[TS_MOVING_SPEED]:
+            tracks[j, TR_MOVING] = 1.0
+        elif speed < 0.5 * s[TS_MOVING_SPEED]:
+            tracks[j, TR_MOVING] = 0.0
     j = 0
     while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses or max_coast
         limit = s[TS_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
