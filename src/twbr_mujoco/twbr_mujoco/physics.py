@@ -155,10 +155,7 @@ class MujocoSimulator(Simulator):
         """One LiDAR scan started at the current state, cast by MuJoCo's ray tracer from the chassis' own pose
         (lidar_scene.py), with the device's noise and dropouts."""
         s, d = self.state, self.data
-        obstacles = self.world.obstacles() if self.world is not None else []
-        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
-        velocities = np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2)
-        radii = np.array([o.radius for o in obstacles], dtype=float)
+        positions, velocities, radii = self.obstacle_arrays()
         ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
         self.lidar_scene.cast(self._lidar_s, d.xpos[self._chassis], d.xmat[self._chassis].reshape(3, 3),
                               s[dyn.S_XD], s[dyn.S_PSID], positions, velocities, radii, ranges)

@@ -168,14 +168,19 @@ class Simulator:
         if twin.target_sensor_rate > 0.0:
             twin.target_detection()
 
+    def obstacle_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The world's obstacles now as the sensors' kernels take them: positions (n, 2) [m], velocities
+        (n, 2) [m/s], radii (n,) [m]."""
+        obstacles = self.world.obstacles() if self.world is not None else []
+        return (np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2),
+                np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2),
+                np.array([o.radius for o in obstacles], dtype=float))
+
     def scan(self) -> np.ndarray:
         """One LiDAR scan started at the current state (lidar.py): ranges [m] by beam, the device's noise
         and dropouts included, REP 117's -inf / +inf outside its range."""
         s = self.state
-        obstacles = self.world.obstacles() if self.world is not None else []
-        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
-        velocities = np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2)
-        radii = np.array([o.radius for o in obstacles], dtype=float)
+        positions, velocities, radii = self.obstacle_arrays()
         ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
         lidar.cast_scan(self._lidar_s, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
                         s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
@@ -189,9 +194,7 @@ class Simulator:
         if target is None:
             return None
         s = self.state
-        obstacles = self.world.obstacles()
-        positions = np.array([(o.x, o.y) for o in obstacles], dtype=float).reshape(-1, 2)
-        radii = np.array([o.radius for o in obstacles], dtype=float)
+        positions, _velocities, radii = self.obstacle_arrays()
         out = np.empty(2)
         if not target_sensor.measure_target(self._target_s, self._target_generator, s[dyn.S_XC], s[dyn.S_YC],
                                             s[dyn.S_PSI], s[dyn.S_TH], target.x, target.y, positions, radii, out):
