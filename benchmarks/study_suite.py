@@ -3,10 +3,12 @@ docs/planner.md show (success, outcome counts, time to reach, clearance, pitch),
 
     tools/run.sh python benchmarks/study_suite.py                    # -> results/suite.json (docs/planner.md)
     tools/run.sh python benchmarks/study_suite.py --people           # -> results/people.json (README.md)
+    tools/run.sh python benchmarks/study_suite.py --ablation         # -> results/ablation.json (docs/planner.md)
 
 The default: the paper's three scenarios and every suite layout, the paper's and the robust method, 300
 seeds (~10 minutes on 2 cores). --people: issue 35's people layouts, the robust method and its peers (dwa,
-vo), 30 seeds (~5 minutes; dwa's rollouts are most of it). Issue 35's targets ask for 1000 (`make suite`).
+vo), 30 seeds (~5 minutes; dwa's rollouts are most of it). --ablation: the robust method with each addition
+off in turn (suite.ABLATIONS), every layout, 300 seeds (~40 minutes). Issue 35's targets ask for 1000 (`make suite`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from pathlib import Path
 
 from results_file import RESULTS, write_results
 
-from twbr_batch.suite import chosen_scenarios, run_suite, suite_scenarios
+from twbr_batch.suite import ablation_variants, chosen_scenarios, run_suite, suite_scenarios
 
 PEOPLE = ("crowd_crossing", "people_flow", "narrow_passage", "overtaken_by_crowd", "clutter_movers",
           "target_behind_wall", "reactive_crowd")
@@ -27,16 +29,23 @@ PEOPLE = ("crowd_crossing", "people_flow", "narrow_passage", "overtaken_by_crowd
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--people", action="store_true", help="issue 35's people layouts, robust and its peers")
+    ap.add_argument("--ablation", action="store_true", help="the robust method with each addition off in turn")
     ap.add_argument("-n", "--runs", type=int, help="seeds per layout and method, 1..n (default 300; --people 30)")
     ap.add_argument("--methods", help="comma-separated (default paper,robust; --people robust,dwa,vo)")
     ap.add_argument("--json", help="default results/suite.json (--people: results/people.json)")
     args = ap.parse_args()
     runs = args.runs or (30 if args.people else 300)
-    methods = (args.methods or ("robust,dwa,vo" if args.people else "paper,robust")).split(",")
+    if args.ablation:
+        variants = ablation_variants()
+    else:
+        names = (args.methods or ("robust,dwa,vo" if args.people else "paper,robust")).split(",")
+        variants = {m: {"method": m} for m in names}
+    methods = list(variants)
     paths = chosen_scenarios(",".join(PEOPLE)) if args.people else suite_scenarios()
-    out = Path(args.json or RESULTS / ("people.json" if args.people else "suite.json"))
+    kind = "people" if args.people else "ablation" if args.ablation else "suite"
+    out = Path(args.json or RESULTS / f"{kind}.json")
     with tempfile.TemporaryDirectory() as work:
-        summary = run_suite(Path(work), runs, {m: {"method": m} for m in methods}, paths, figures=False)
+        summary = run_suite(Path(work), runs, variants, paths, figures=False)
     print(f"| layout | {' | '.join(methods)} |")
     for layout, by_method in summary.items():
         print(f"| {layout} | " + " | ".join(f"{100 * by_method[m]['success_rate']:.1f} %" for m in methods) + " |")

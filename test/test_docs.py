@@ -166,8 +166,11 @@ def test_the_readme_s_people_figures_are_the_study_s():
     assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
 
 
-def test_the_suite_table_docs_planner_shows_is_the_study_s():
+def test_the_suite_and_ablation_tables_docs_planner_shows_are_the_study_s():
     figures = _figures_module()
-    block = figures.current_block((ROOT / "docs" / "planner.md").read_text(), figures.SUITE_BEGIN, figures.SUITE_END)
-    assert block, "docs/planner.md lost its generated suite table's markers"
-    assert block == figures.render_suite(), "run: tools/run.sh python benchmarks/figures.py --write"
+    blocks = [b for b in figures.BLOCKS if b[0] == figures.PLANNER_DOC]
+    assert len(blocks) == 2
+    for doc, begin, end, render_block in blocks:
+        block = figures.current_block(doc.read_text(), begin, end)
+        assert block, f"docs/planner.md lost the markers {begin!r}"
+        assert block == render_block(), "run: tools/run.sh python benchmarks/figures.py --write"

@@ -68,6 +68,11 @@ ABLATIONS: dict[str, dict[str, Any]] = {
 }
 
 
+def ablation_variants() -> dict[str, dict[str, Any]]:
+    """The ablation's planners, by name: the robust method's parameters with one addition off."""
+    return {name: {"method": "robust", **overrides} for name, overrides in ABLATIONS.items()}
+
+
 @dataclass(frozen=True)
 class SuiteRow:
     """One run: a row of runs.csv."""
@@ -220,6 +225,24 @@ def markdown_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], varia
     return "\n".join(lines) + "\n"
 
 
+def success_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], variants: Sequence[str]) -> str:
+    """Success per scenario (columns: variants), "av." = avoidable collisions; the mean over scenarios and
+    the avoidable collisions over all of them in the last two rows: the ablation's table."""
+    lines = [f"| scenario | {' | '.join(variants)} |", "|---" * (len(variants) + 1) + "|"]
+    for scenario, by_variant in summary.items():
+        cells = []
+        for v in variants:
+            s = by_variant[v]
+            avoidable = f" ({s['collision_avoidable']} av.)" if s["collision_avoidable"] else ""
+            cells.append(f"{100 * s['success_rate']:.1f} %{avoidable}")
+        lines.append(f"| {scenario} | {' | '.join(cells)} |")
+    means = [100 * float(np.mean([by[v]["success_rate"] for by in summary.values()])) for v in variants]
+    avoidable = [sum(by[v]["collision_avoidable"] for by in summary.values()) for v in variants]
+    lines.append("| **mean** | " + " | ".join(f"**{m:.2f} %**" for m in means) + " |")
+    lines.append("| avoidable collisions (all) | " + " | ".join(str(a) for a in avoidable) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: Path) -> None:
     """The field of the first seed's layout at t = 0 and the first seeds' paths of each variant."""
     import matplotlib
@@ -322,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
         if opts.first_seed < 0:
             raise ConfigError(f"invalid --first-seed {opts.first_seed}: must be at least 0")
         if opts.ablation:
-            variants = {name: {"method": "robust", **overrides} for name, overrides in ABLATIONS.items()}
+            variants = ablation_variants()
         else:
             methods = [m.strip() for m in opts.methods.split(",") if m.strip()]
             unknown = [m for m in methods if m not in METHODS]
