@@ -28,7 +28,7 @@ from twbr_tracker.assignment import assign
 from twbr_tracker.tracker import WALL_IDS
 
 # Rows of an obstacle list: id, x, y, vx, vy, radius (twbr_common.cdr.obstacle_rows)
-O_ID, O_X, O_Y, O_VX, O_VY, O_RADIUS = range(6)
+OB_ID, OB_X, OB_Y, OB_VX, OB_VY, OB_RADIUS = range(6)
 MOVING = 0.05  # [m/s] an obstacle slower than this is standing (a person waiting is not judged on velocity)
 
 
@@ -55,16 +55,16 @@ def visible(robot: tuple[float, float], rows: np.ndarray, range_max: float) -> n
     """Which of the world's obstacles the scanner at `robot` can see: in range, and no other disc across
     the line from the robot to their centre."""
     rx, ry = robot
-    centres = rows[:, O_X:O_Y + 1] - (rx, ry)
+    centres = rows[:, OB_X:OB_Y + 1] - (rx, ry)
     dist = np.hypot(centres[:, 0], centres[:, 1])
-    seen = dist - rows[:, O_RADIUS] <= range_max
+    seen = dist - rows[:, OB_RADIUS] <= range_max
     for i in np.flatnonzero(seen):
         if dist[i] < 1e-9:
             continue
         u = centres[i] / dist[i]
         along = centres @ u
         across = np.abs(centres[:, 0] * u[1] - centres[:, 1] * u[0])
-        blocking = (along > 0.0) & (along < dist[i] - rows[i, O_RADIUS]) & (across < rows[:, O_RADIUS])
+        blocking = (along > 0.0) & (along < dist[i] - rows[i, OB_RADIUS]) & (across < rows[:, OB_RADIUS])
         blocking[i] = False
         seen[i] = not blocking.any()
     return seen
@@ -78,17 +78,17 @@ def evaluate(instants: Iterable[tuple[float, np.ndarray, np.ndarray, tuple[float
     pos_sq, vel_sq = [], []
     n_instants = judged = matched = switches = missed = false = tracks_total = 0
     for stamp, tracks, world, robot in instants:
-        tracks = tracks[tracks[:, O_ID] < WALL_IDS]
-        for tid in tracks[:, O_ID].astype(int):
+        tracks = tracks[tracks[:, OB_ID] < WALL_IDS]
+        for tid in tracks[:, OB_ID].astype(int):
             born.setdefault(int(tid), stamp)
         n_instants += 1
         tracks_total += len(tracks)
-        cost = np.hypot(tracks[:, None, O_X] - world[None, :, O_X], tracks[:, None, O_Y] - world[None, :, O_Y])
+        cost = np.hypot(tracks[:, None, OB_X] - world[None, :, OB_X], tracks[:, None, OB_Y] - world[None, :, OB_Y])
         match = np.full(len(tracks), -1, dtype=np.int64)
         assign(np.ascontiguousarray(cost.reshape(len(tracks), len(world))), gate, match)
         false += int((match < 0).sum())
         track_of = {int(w): i for i, w in enumerate(match) if w >= 0}
-        moving = np.hypot(world[:, O_VX], world[:, O_VY]) >= MOVING
+        moving = np.hypot(world[:, OB_VX], world[:, OB_VY]) >= MOVING
         judged_here = np.flatnonzero(moving & visible(robot, world, range_max))
         for w in judged_here:
             judged += 1
@@ -97,13 +97,13 @@ def evaluate(instants: Iterable[tuple[float, np.ndarray, np.ndarray, tuple[float
                 missed += 1
                 continue
             matched += 1
-            wid, tid = int(world[w, O_ID]), int(tracks[i, O_ID])
+            wid, tid = int(world[w, OB_ID]), int(tracks[i, OB_ID])
             if last_track.get(wid, tid) != tid:
                 switches += 1
             last_track[wid] = tid
             if stamp - born[tid] >= settle:
                 pos_sq.append(cost[i, w] ** 2)
-                vel_sq.append((tracks[i, O_VX] - world[w, O_VX]) ** 2 + (tracks[i, O_VY] - world[w, O_VY]) ** 2)
+                vel_sq.append((tracks[i, OB_VX] - world[w, OB_VX]) ** 2 + (tracks[i, OB_VY] - world[w, OB_VY]) ** 2)
     track_seconds = matched * period
     return TrackingFigures(
         n_instants, judged, matched,
