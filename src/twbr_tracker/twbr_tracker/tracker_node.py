@@ -29,14 +29,15 @@ from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from twbr_common.geometry import quaternion_from_rpy, rpy_from_quaternion
+from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
-from twbr_sim.world_messages import obstacles_message, world_markers
+from twbr_sim.world import TargetState
+from twbr_sim.world_messages import obstacles_message, target_message, world_markers
 from twbr_tracker.target import TARGET_SPECS, TargetFilter
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
@@ -162,16 +163,12 @@ class TrackerNode(Node):
 
 
 def target_odometry(estimate, stamp, frame: str) -> Odometry:
-    """The fused target as the planner reads a target: pose (heading along its velocity), forward speed,
-    and the position's variance on the pose covariance's x and y."""
-    msg = Odometry()
-    msg.header.stamp = stamp
-    msg.header.frame_id = frame
-    msg.child_frame_id = "target"
-    msg.pose.pose.position.x, msg.pose.pose.position.y = estimate.x, estimate.y
-    o = msg.pose.pose.orientation
-    o.x, o.y, o.z, o.w = quaternion_from_rpy(0.0, 0.0, math.atan2(estimate.vy, estimate.vx))
-    msg.twist.twist.linear.x = math.hypot(estimate.vx, estimate.vy)
+    """The fused target as the planner reads a target (heading along its velocity, forward speed), with the
+    position's variance on the pose covariance's x and y."""
+    vx, vy = estimate.vx, estimate.vy
+    state = TargetState(x=estimate.x, y=estimate.y, heading=math.atan2(vy, vx), speed=math.hypot(vx, vy),
+                        yaw_rate=0.0)
+    msg = target_message(state, stamp, frame)
     covariance = [0.0] * 36
     covariance[0] = covariance[7] = estimate.position_variance
     msg.pose.covariance = covariance
