@@ -157,10 +157,13 @@ DRIVERS = ("sim", "mujoco")
 ROBOT_FILES = {"sim": ("sim.yaml", "sim_node"), "mujoco": ("mujoco_driver.yaml", "mujoco_driver")}
 
 
-def scan_rate(driver: str, config: Path) -> float:
-    """The robot's LiDAR rate [Hz] as its parameter file sets it (0: no scan)."""
-    name, node = ROBOT_FILES[driver]
-    return float(node_parameters(config / name, node).get("lidar.rate", default_of(LIDAR_SPECS, "lidar.rate")))
+def lidar_settings(driver: str, config: Path) -> dict[str, float]:
+    """The robot's LiDAR parameters as its parameter file sets them (`lidar.rate` [Hz], 0: no scan;
+    `lidar.range_max` [m]; ...), the spec's default where it is silent."""
+    file, node = ROBOT_FILES[driver]
+    given = node_parameters(config / file, node)
+    return {spec.name: float(given.get(spec.name, spec.default)) for spec in LIDAR_SPECS
+            if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)}
 
 
 def run_perception(scenario: Scenario, perception: str | None) -> str:
@@ -194,7 +197,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     """The processes of a run, in start order (the simulator last: it waits for its subscribers).
     `perception` lidar: tracker_node between the robot's scan and the planner (run_perception)."""
     lidar = perception == "lidar"
-    rate = scan_rate(driver, config)
+    rate = lidar_settings(driver, config)["lidar.rate"]
     if lidar and rate <= 0.0:
         name, _node = ROBOT_FILES[driver]
         raise ConfigError(f"--perception lidar: the robot has no LiDAR (lidar.rate = {rate:g} in {name}); set"
@@ -572,10 +575,8 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     metrics.foreign_publishers = list(foreign or [])
     metrics.perception = perception
     if perception == "lidar":
-        name, node = ROBOT_FILES[opts.driver]
-        range_max = float(node_parameters(config_dir() / name, node).get(
-            "lidar.range_max", default_of(LIDAR_SPECS, "lidar.range_max")))
-        metrics.tracking = tracking_metrics(series, range_max, 1.0 / scan_rate(opts.driver, config_dir()))
+        lidar = lidar_settings(opts.driver, config_dir())
+        metrics.tracking = tracking_metrics(series, lidar["lidar.range_max"], 1.0 / lidar["lidar.rate"])
         latency = TRACKER_LATENCY.search(tracker_log)
         if metrics.tracking is not None and latency:
             metrics.tracking.update(scans_tracked=int(latency[1]), latency_median_ms=float(latency[2]),
