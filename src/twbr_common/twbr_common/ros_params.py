@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import contextlib
 import faulthandler
+import signal
 import sys
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
@@ -140,12 +142,28 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        with exit_deadline(SHUTDOWN_GRACE_S):
+        with signals_ignored(), exit_deadline(SHUTDOWN_GRACE_S):
             if node is not None:
                 node.destroy_node()
             if rclpy.ok():
                 rclpy.try_shutdown()
     return code
+
+
+@contextlib.contextmanager
+def signals_ignored() -> Iterator[None]:
+    """SIGINT and SIGTERM ignored for the block: a second Ctrl-C, or a supervisor's stop right after its
+    interrupt, must not tear a teardown that writes the node's last words (a viewer's summary, a bag's
+    index). exit_deadline bounds the block instead."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
 
 
 @contextlib.contextmanager

@@ -78,6 +78,7 @@ def _child_setup(parent: int, niceness: int):
 class NodeProcess:
     def __init__(self, argv: list[str], env: dict[str, str], log_dir: Path, name: str, niceness: int = 0) -> None:
         self.name = name
+        self._interrupted = False
         log_dir.mkdir(parents=True, exist_ok=True)
         self.stdout_path = log_dir / f"{name}.out"
         self.stderr_path = log_dir / f"{name}.err"
@@ -109,8 +110,10 @@ class NodeProcess:
         return self.stdout_path.read_text() + self.stderr_path.read_text()
 
     def interrupt(self) -> None:
-        """SIGINT to the process group, without waiting (stop() then waits)."""
-        if self.proc.poll() is None:
+        """SIGINT to the process group once, without waiting (stop() then waits): a second one would land
+        in the node's teardown."""
+        if self.proc.poll() is None and not self._interrupted:
+            self._interrupted = True
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.proc.pid, signal.SIGINT)
 
