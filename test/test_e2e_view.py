@@ -53,6 +53,7 @@ def test_the_runner_serves_the_run_live_and_view_bag_replays_it(tmp_path, ros_do
     assert logged > sum(int(n) for n in counts.values())  # the bag has every message; the live view drops
 
 
+@pytest.mark.long  # 38 s; the served page's content is checked by the test above in `make test`
 @pytest.mark.skipif(chromium() is None, reason="no chromium: the set-up installs Debian's `chromium` with apt as"
                     " root; on this machine it could not")
 def test_the_served_page_draws_the_map_in_a_browser(launch, tmp_path, monkeypatch):
