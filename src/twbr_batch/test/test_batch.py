@@ -65,6 +65,9 @@ def test_the_robust_planner_runs_the_same_in_the_batch_and_on_the_scalar_cores(n
         np.testing.assert_allclose(got["x_c"], trace.x_c, **TOL)
         assert result.table[i, batch.Z_COLLISIONS] == row.collisions
         assert row.reached  # the robust method reaches these targets
+        # the jolt the suite reports: the largest change of a wheel's torque between two samples
+        jolts = np.abs(np.diff(np.stack([trace["left_torque"], trace["right_torque"]]), axis=1))
+        assert result.table[i, batch.Z_TORQUE_STEP_MAX] == pytest.approx(jolts.max(), abs=1e-12)
 
 
 @pytest.mark.parametrize(("method", "name"), [("dwa", "suite/crowd_crossing"), ("vo", "suite/people_flow")])

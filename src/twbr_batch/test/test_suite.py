@@ -3,6 +3,8 @@
 import csv
 import json
 
+import pytest
+
 from twbr_batch import suite
 from twbr_batch.avoidability import OUTCOMES
 
@@ -24,6 +26,13 @@ def test_the_suite_classifies_every_run_and_writes_its_table_and_figures(tmp_pat
     assert summary["trap_small"]["paper"]["trapped"] == 3
     table = (out / "table.md").read_text()
     assert "| trap_small | robust | 100.0 % |" in table
+    # the motors' largest jolt per run (issue 35's <= 0.03 N·m), per run and as the cell's worst
+    jolts = [float(r["torque_step_max_nm"]) for r in rows]
+    assert all(0.0 < j < 1.0 for j in jolts)
+    assert summary["trap_small"]["robust"]["torque_step_max_nm"] == pytest.approx(max(
+        float(r["torque_step_max_nm"]) for r in rows if r["scenario"] == "trap_small" and r["variant"] == "robust"),
+        abs=1e-6)  # runs.csv keeps 6 digits
+    assert "largest torque step [N·m]" in table
     assert (out / "figures" / "trap_small.png").stat().st_size > 10_000
 
 

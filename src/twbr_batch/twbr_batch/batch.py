@@ -153,7 +153,7 @@ RESULT_LAYOUT = Layout((
     "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
     "samples", "physics_steps", "hit_obstacle", ("detected", 6), "pitch_abs_max_settled", "final_distance",
     "stuck_at_end", "lift_events", "slip_events", "lifted_time", "slipping_time", "pitch_error_square_sum",
-    "collision_limited",
+    "collision_limited", "torque_step_max",
 ))
 Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
 Z_COLLISIONS = RESULT_LAYOUT["collisions"]
@@ -176,6 +176,7 @@ Z_COLLISION_LIMITED = RESULT_LAYOUT["collision_limited"]  # samples whose comman
 Z_LIFTED_TIME = RESULT_LAYOUT["lifted_time"]  # [s]
 Z_SLIPPING_TIME = RESULT_LAYOUT["slipping_time"]  # [s]
 Z_PITCH_ERROR_SQUARES = RESULT_LAYOUT["pitch_error_square_sum"]  # sum over samples of (pitch used - true)^2
+Z_TORQUE_STEP_MAX = RESULT_LAYOUT["torque_step_max"]  # [N·m] largest change of a wheel's torque between two samples
 N_RESULT = len(RESULT_LAYOUT)
 SETTLING_TIME = 2.0  # [s] the start's transient, left out of pitch_abs_max_settled
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
@@ -533,14 +534,19 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
         results[j, Z_SIM_TIME] = t
         results[j, Z_SAMPLES] = k + 1
+        torque_limit = torque_limits[j]
+        left = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
+        right = min(max(control_out[j, O_RIGHT], -torque_limit), torque_limit)
+        if k > 0:  # what the motors feel as a jolt (issue 35: a sawtooth at the planner's rate)
+            results[j, Z_TORQUE_STEP_MAX] = max(results[j, Z_TORQUE_STEP_MAX], abs(left - loop[j, L_LEFT]),
+                                                abs(right - loop[j, L_RIGHT]))
         if (k == int(run[U_N_SAMPLES]) - 1 or results[j, Z_FALLEN] != 0.0
                 or (run[U_END_ON_TARGET] != 0.0 and not math.isnan(results[j, Z_REACHED_AT]))):
             ended[q] = True
             robot_end(run, results, memories, j)
             continue
-        torque_limit = torque_limits[j]
-        loop[j, L_LEFT] = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
-        loop[j, L_RIGHT] = min(max(control_out[j, O_RIGHT], -torque_limit), torque_limit)
+        loop[j, L_LEFT] = left
+        loop[j, L_RIGHT] = right
 
 
 @parallel_kernel

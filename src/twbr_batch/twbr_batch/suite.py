@@ -41,6 +41,7 @@ from twbr_batch.batch import (
     Z_SIM_TIME,
     Z_STUCK_AT_END,
     Z_STUCK_STEPS,
+    Z_TORQUE_STEP_MAX,
     run_batch,
 )
 from twbr_batch.montecarlo import csv_text, finite_or_none
@@ -90,6 +91,7 @@ class SuiteRow:
     pitch_abs_max_settled_rad: float  # after the first 2 s
     final_distance_m: float
     sim_time_s: float
+    torque_step_max_nm: float = math.nan  # a wheel's largest torque change between two control samples
 
     @property
     def succeeded(self) -> bool:
@@ -180,6 +182,7 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
             min_clearance_m=finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),
             final_distance_m=float(z[Z_FINAL_DISTANCE]), sim_time_s=float(z[Z_SIM_TIME]),
+            torque_step_max_nm=float(z[Z_TORQUE_STEP_MAX]),
         ))
     return rows
 
@@ -199,6 +202,7 @@ def summarise(rows: Sequence[SuiteRow]) -> dict[str, Any]:
         "time_to_reach_p95_s": float(np.percentile(reach, 95)) if len(reach) else None,
         "min_clearance_m": min(clearance) if clearance else None,
         "pitch_abs_max_settled_rad": max(r.pitch_abs_max_settled_rad for r in rows),
+        "torque_step_max_nm": max(r.torque_step_max_nm for r in rows),
     }
 
 
@@ -210,7 +214,7 @@ def markdown_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], varia
     """One row per scenario and variant."""
     lines = ["| scenario | planner | success | collisions (avoidable / not) | falls | trapped | outrun | late |"
              " runs with time stuck | time to reach median / p95 [s] | min clearance [m] | max abs pitch after 2 s"
-             " [rad] |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             " [rad] | largest torque step [N·m] |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scenario, by_variant in summary.items():
         for variant in variants:
             s = by_variant.get(variant)
@@ -221,7 +225,7 @@ def markdown_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], varia
                 f" ({s['collision_avoidable']} / {s['collision_unavoidable']}) | {s['fall']} | {s['trapped']} |"
                 f" {s['outrun']} | {s['late']} | {s['stuck']} | {_cell(s['time_to_reach_median_s'])} /"
                 f" {_cell(s['time_to_reach_p95_s'])} | {_cell(s['min_clearance_m'], '{:.2f}')} |"
-                f" {s['pitch_abs_max_settled_rad']:.4f} |")
+                f" {s['pitch_abs_max_settled_rad']:.4f} | {_cell(s.get('torque_step_max_nm'), '{:.3f}')} |")
     return "\n".join(lines) + "\n"
 
 
