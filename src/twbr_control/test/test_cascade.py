@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from twbr_common.params import defaults
+from twbr_common.params import ConfigError, defaults
 from twbr_control.cascade import CascadeController
-from twbr_control.controller_params import CONTROL_SPECS
+from twbr_control.controller_params import CONTROL_SPECS, resolve
 from twbr_control.state_sync import Action, StateSync
 
 DT = 0.005
@@ -229,7 +229,7 @@ def test_a_planner_ramp_reaches_the_yaw_rate_loop_as_a_ramp_not_a_staircase():
     stream's slope, the reference is the ramp itself, with no lag behind the planner's own line."""
     ramp = [0.05 * i for i in range(1, 21)]
     held = _planner_stream(make(**{"reference_hold.yaw_rate": 0.0}), ramp)
-    smooth = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25}), ramp)
+    smooth = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.yaw_rate_ref_shaped for o in smooth])
     # the line through the commands where they apply (after one interval catching up with the first)
@@ -245,7 +245,7 @@ def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step
     comes back to it along a straight line within one more interval; no sample-to-sample change is larger than
     the ramp's own."""
     commands = [0.05 * i for i in range(1, 11)] + [0.5] * 6
-    outs = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25}), commands)
+    outs = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), commands)
     shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
     assert shaped.max() <= 0.55 + 1e-9
     assert shaped[-30:] == pytest.approx(np.full(30, 0.5))
@@ -271,7 +271,7 @@ def test_a_planner_accelerating_reaches_the_velocity_loop_as_a_ramp_without_a_20
     v_ref is the ramp itself."""
     ramp = [0.003 * i for i in range(1, 41)]
     held = _velocity_stream(make(**{"reference_hold.velocity": 0.0}), ramp)
-    smooth = _velocity_stream(make(**{"reference_hold.velocity": 0.15}), ramp)
+    smooth = _velocity_stream(make(**{"reference_hold.velocity": 0.15, "reference_smoothing.velocity": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.velocity_ref_shaped for o in smooth])
     line = 0.009 + 0.06 * (t - t[20])
@@ -315,9 +315,44 @@ def test_the_yaw_rate_setpoint_weight_scales_the_proportional_kick_of_a_step():
 def test_the_first_command_from_rest_starts_a_ramp_and_a_large_one_is_a_step():
     """A planner's first turn command (0.05 rad/s, its slew limit from 0) is eased in at the hold's slope
     instead of kicking the differential torque; a first command beyond the hold's reach is obeyed at once."""
-    c = make(**{"reference_hold.yaw_rate": 1.25})
+    c = make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0})
     shaped = [o.yaw_rate_ref_shaped for o in _planner_stream(c, [0.05])]
     assert shaped[0] == 0.0 and shaped[-1] == pytest.approx(0.05)
     assert np.abs(np.diff([0.0, *shaped])).max() <= 1.25 / 200.0 + 1e-9
     big = make(**{"reference_hold.yaw_rate": 1.25})
     assert _planner_stream(big, [0.5])[0].yaw_rate_ref_shaped == 0.5
+
+
+def test_where_the_planners_yaw_acceleration_reverses_the_bend_reaches_the_loop_rounded():
+    """Issue 35: a planner slewing omega up at 1 rad/s^2 and then down (a weave between obstacles) bends the
+    held reference by 2 rad/s^2 from one sample to the next, a jolt of the differential torque (kp * 2 rad/s^2
+    * 5 ms on each wheel, ~0.07 N·m in make demo); averaged over reference_smoothing's 0.15 s it bends over 30
+    samples instead, and lags the hold's line by half the window on the straight parts."""
+    weave = [0.05 * i for i in range(1, 11)] + [0.5 - 0.05 * i for i in range(1, 11)]
+    hold = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), weave)
+    rounded = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.15}),
+                              weave)
+    # With the robot not turning (open loop), each sample's torque change is the ramp's own plus the bend's:
+    # the bend is the change of that change (on a robot that follows the ramp, all that is left of it).
+    jolts = [np.abs(np.diff([o.differential_torque for o in outs[20:]], 2)).max() for outs in (hold, rounded)]
+    assert jolts[0] > 0.9 * 3.429 * 2.0 / 200.0  # the bend in one sample
+    assert jolts[1] < 0.05 * jolts[0]
+    lines = [np.array([o.yaw_rate_ref_shaped for o in outs]) for outs in (hold, rounded)]
+    lag = lines[0][60:100] - lines[1][60:100]  # on the way up, the window past the start and short of the bend
+    assert lag == pytest.approx(np.full(40, 1.0 * (0.15 - 0.005) / 2.0), abs=1e-9)
+
+
+def test_smoothing_leaves_steps_and_the_collision_monitors_limit_at_once():
+    """Only a planner's ramp is averaged: a step asked for, and the collision monitor lowering v between
+    commands, reach the loops at the sample they come, whatever the window."""
+    c = make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.3})
+    outs = _planner_stream(c, [0.05 * i for i in range(1, 6)] + [1.0] * 3)
+    assert outs[50].yaw_rate_ref_shaped == 1.0 and outs[-1].yaw_rate_ref_shaped == 1.0
+    c = make(**{"reference_hold.velocity": 0.15, "reference_rate.velocity": 0.0, "reference_smoothing.velocity": 0.3})
+    outs = _velocity_stream(c, [0.003 * i for i in range(1, 21)], limit=lambda t: 0.04 if t > 0.8 else 1.0)
+    assert all(o.velocity_ref_shaped <= 0.04 + 1e-12 for o in outs if o.stamp > 0.8)
+
+
+def test_a_smoothing_window_longer_than_the_ring_is_refused_by_name():
+    with pytest.raises(ConfigError, match=r"reference_smoothing\.yaw_rate.*at most 64 control periods, 0\.064 s"):
+        resolve({"rate": 1000.0, "reference_smoothing.yaw_rate": 0.1})

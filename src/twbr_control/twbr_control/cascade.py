@@ -31,7 +31,8 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
     "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
-    "reference_hold.velocity", "velocity.measurement_filter",
+    "reference_hold.velocity", "reference_smoothing.yaw_rate", "reference_smoothing.velocity",
+    "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -46,6 +47,8 @@ C_V_RATE = SETTINGS_LAYOUT["reference_rate.velocity"]  # [m/s^2]
 C_W_RATE = SETTINGS_LAYOUT["reference_rate.yaw_rate"]  # [rad/s^2]
 C_W_HOLD = SETTINGS_LAYOUT["reference_hold.yaw_rate"]  # [rad/s^2]
 C_V_HOLD = SETTINGS_LAYOUT["reference_hold.velocity"]  # [m/s^2]
+C_W_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.yaw_rate"]  # [s]
+C_V_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.velocity"]  # [s]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -56,10 +59,13 @@ C_VELOCITY = SETTINGS_LAYOUT["velocity"]
 C_PITCH = SETTINGS_LAYOUT["pitch"]
 C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
-# A command hold's memory (_command_hold): the last command, its stamp, whether there was one, and the
-# straight segment the held reference follows (from, to, start, end).
-N_HOLD = 7
-H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END = range(N_HOLD)
+# A command hold's memory (_command_hold): the last command, its stamp, whether there was one, the
+# straight segment the held reference follows (from, to, start, end), whether that is a ramp, and the
+# smoothing's ring of the last SMOOTHING_SAMPLES held values (how many it holds, where the next goes, the
+# value before the first of them).
+SMOOTHING_SAMPLES = 64
+H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END, H_RAMP, H_COUNT, H_NEXT, H_BASE, H_RING = range(12)
+N_HOLD = H_RING + SMOOTHING_SAMPLES
 MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp: each is held as it is
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
@@ -231,21 +237,23 @@ def _segment_at(h, stamp):
 
 
 @inline_kernel
-def _command_hold(h, reference, command_stamp, stamp, max_slope):
+def _command_hold(h, reference, command_stamp, stamp, max_slope, smoothing):
     """The reference between commands (the sample-and-hold of a 20 Hz planner otherwise): on each command, a
     straight line from where the held reference is now to where the command stream is heading one command
     interval on (the command plus its last slope times the interval). A stream that ramps at a slope up to
     `max_slope` (a planner's max_yaw_acceleration) then reaches the loop as the ramp itself, without lag and
-    without steps; where the slope changes the line bends instead of jumping. The first command after none
-    starts from 0 at `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump steeper than `max_slope`
-    (a step asked for) passes at once; 0: every command held as it is. A command changed between two
-    stamps (the collision monitor's limit, sample by sample) passes as it is. `h`: the hold's memory (H_*)."""
+    without steps; where the slope changes the line bends instead of jumping, and the bend is rounded over
+    the last `smoothing` samples (_smoothed; 1: none). The first command after none starts from 0 at
+    `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump steeper than `max_slope` (a step asked
+    for) passes at once; 0: every command held as it is. A command changed between two stamps (the collision
+    monitor's limit, sample by sample) passes as it is. `h`: the hold's memory (H_*)."""
     if max_slope <= 0.0:
         return reference
     if h[H_HAS] == 0.0 or command_stamp > h[H_STAMP]:
         interval = command_stamp - h[H_STAMP]
         ramp = h[H_HAS] != 0.0 and 0.0 < interval <= MAX_HOLD_INTERVAL
         slope = (reference - h[H_COMMAND]) / interval if ramp else 0.0
+        h[H_RAMP] = 1.0
         if ramp and abs(slope) <= max_slope * (1.0 + 1e-6):
             start_value, end_value, duration = _segment_at(h, stamp), reference + slope * interval, interval
         elif h[H_HAS] == 0.0 and 0.0 < abs(reference) <= max_slope * MAX_HOLD_INTERVAL:
@@ -254,6 +262,7 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
             start_value, end_value, duration = 0.0, reference, abs(reference) / max_slope
         else:  # held as it is (any duration: the segment is flat)
             start_value, end_value, duration = reference, reference, 1.0
+            h[H_RAMP] = 0.0
         h[H_FROM] = start_value
         h[H_TO] = end_value
         h[H_START] = stamp
@@ -262,8 +271,33 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope):
         h[H_STAMP] = command_stamp
         h[H_HAS] = 1.0
     elif reference != h[H_COMMAND]:
-        return reference  # changed since it came (the collision monitor lowered it): that applies at once
-    return _segment_at(h, stamp)
+        return _smoothed(h, reference, 1)  # changed since it came (the collision monitor lowered it): at once
+    return _smoothed(h, _segment_at(h, stamp), smoothing if h[H_RAMP] != 0.0 else 1)
+
+
+@inline_kernel
+def _smoothed(h, value, samples):
+    """The mean of the last `samples` held values, `value` the newest: a ramp's bend, where the planner's yaw
+    acceleration reverses from one command to the next, reaches the loop spread over the window instead of
+    as one jolt of the yaw loop's torque. samples 1: the value itself, and the window starts afresh from it,
+    as if it had been held all along (a step, or a limit that applies at once)."""
+    if samples <= 1:
+        h[H_COUNT] = 0.0
+        h[H_BASE] = value
+    h[H_RING + int(h[H_NEXT])] = value
+    h[H_NEXT] = (h[H_NEXT] + 1.0) % SMOOTHING_SAMPLES
+    h[H_COUNT] = min(h[H_COUNT] + 1.0, SMOOTHING_SAMPLES)
+    n = min(int(h[H_COUNT]), samples)
+    total = (samples - n) * h[H_BASE]  # the samples before the first in the ring: the value then
+    for i in range(n):
+        total += h[H_RING + (int(h[H_NEXT]) - 1 - i) % SMOOTHING_SAMPLES]
+    return total / samples
+
+
+@inline_kernel
+def _smoothing_samples(window, period):
+    """[samples] a smoothing window [s] at the control period (at least 1: none)."""
+    return max(1, min(SMOOTHING_SAMPLES, int(window / period + 0.5)))
 
 
 @inline_kernel
@@ -325,8 +359,11 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     if cmd_vel_stale:
         velocity_ref = 0.0
         yaw_rate_ref = 0.0
-        k[K_W_HOLD + H_HAS] = 0.0  # no ramp continued past the planner's silence
+        k[K_W_HOLD + H_HAS] = 0.0  # no ramp continued past the planner's silence, nor smoothed from before it
         k[K_V_HOLD + H_HAS] = 0.0
+        for hold_at in (K_W_HOLD, K_V_HOLD):
+            k[hold_at + H_COUNT] = 0.0
+            k[hold_at + H_BASE] = 0.0
     velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
     yaw_rate_ref = _clip(yaw_rate_ref, c[C_MAX_W_REF])
     if abs(pitch - c[C_PITCH_OFFSET]) > c[C_FALL_PITCH] and k[K_FALLEN] == 0.0:
@@ -349,10 +386,12 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         # commands) then moves the proportional terms, and the torques, smoothly.
         # (no command: 0 at once, and the hold forgets the stream, so that the next command starts afresh)
         held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
-            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD])
+            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD],
+            _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
         _rate_limit(k, K_V_SHAPED, held_velocity, c[C_V_RATE], dt)
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
-            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD])
+            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD],
+            _smoothing_samples(c[C_W_SMOOTHING], c[C_PERIOD]))
         _rate_limit(k, K_W_SHAPED, held_yaw_rate, c[C_W_RATE], dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.
         velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)

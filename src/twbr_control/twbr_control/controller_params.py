@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from twbr_common.params import ConfigError, ParamSpec, defaults, tunable, validate_all
+from twbr_control.cascade import SMOOTHING_SAMPLES
 from twbr_control.collision_monitor import MONITOR_SPECS
 from twbr_control.lqr import LQR_SPECS
 from twbr_sim.robot_limits import ROBOT_FILE_SPEC, RobotLimits, at_most, limits_from_file
@@ -59,6 +60,15 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " m/s², with room for jitter): its 20 Hz steps reach the velocity loop as the ramp they sample, not"
               " as a torque sawtooth at 20 Hz; a steeper jump is a step (then reference_rate.velocity); 0: each"
               " command held as it comes", "m/s²", 0.0, 100.0),
+    ParamSpec("reference_smoothing.yaw_rate", 0.0, "the yaw-rate loop sees the mean of the held omega_ref over"
+              " this window while the planner ramps it: where its yaw acceleration reverses from one command to the"
+              " next, the bend is spread over the window (lag: half of it) instead of one jolt of the wheel"
+              " torques, at the cost of lag in the planner's steering loop (docs/nodes.md); steps and stale commands"
+              " pass at once; at most 64 control periods; 0: none", "s",
+              0.0, 0.32),
+    ParamSpec("reference_smoothing.velocity", 0.0, "the same for v_ref: the velocity loop sees the mean of the"
+              " held v_ref over this window while the planner ramps it; the collision monitor's limit applies"
+              " at once; at most 64 control periods; 0: none", "s", 0.0, 0.32),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",
@@ -110,6 +120,12 @@ def check_consistent(cfg: dict) -> dict:
             f"invalid parameter 'max_pitch_ref' = {cfg['max_pitch_ref']:g}: must be below fall_pitch"
             f" - |pitch_offset| = {cfg['fall_pitch'] - abs(cfg['pitch_offset']):g} rad"
         )
+    for name in ("reference_smoothing.yaw_rate", "reference_smoothing.velocity"):
+        if cfg[name] * cfg["rate"] > SMOOTHING_SAMPLES + 0.5:
+            raise ConfigError(
+                f"invalid parameter '{name}' = {cfg[name]:g}: must be at most {SMOOTHING_SAMPLES} control"
+                f" periods, {SMOOTHING_SAMPLES / cfg['rate']:g} s at rate {cfg['rate']:g} Hz"
+            )
     return cfg
 
 
