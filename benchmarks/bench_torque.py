@@ -6,7 +6,9 @@ above 10 Hz [(N·m)^2, the mean square of the part of the signal above 10 Hz]. "
 the reference shaping off and the gains of config/controller.yaml before issue 17 (set below); "held" is today's
 controller with each 20 Hz command of v and omega held as it comes (reference_hold.* 0); "v stepped" holds
 only v's commands as they come (issue 35: the 20 Hz sawtooth while the planner accelerates); "shipped" is
-today's defaults (v_ref and omega_ref continued along the planner's slope between its commands); "yaw ramp"
+today's defaults (v_ref and omega_ref continued along the planner's slope between its commands); "smoothed"
+is that averaged over 0.1 s while the planner ramps (reference_smoothing.*, off by default: the bends where
+its yaw acceleration reverses no longer jolt the torques, but the steering lags); "yaw ramp"
 instead limits omega_ref's rate to the planner's own max_yaw_acceleration, which spreads each command step
 over a period (and lags the planner by it). Runs are the headless closed loop of the nodes' cores (planner
 included, paper's method as the scenario pins): exactly reproducible.
@@ -34,6 +36,7 @@ BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
 }
 HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0}
 V_STEPPED = {"reference_hold.velocity": 0.0}
+SMOOTHED = {"reference_smoothing.yaw_rate": 0.1, "reference_smoothing.velocity": 0.1}
 RAMP = {"reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
 PLANNER_HZ = 20.0
 LINE_WINDOW = (15.0, 20.0)  # [s] of make demo's run: the planner accelerating away from the start
@@ -77,7 +80,8 @@ def torque_figures(control: dict) -> dict:
 
 def main() -> int:
     rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "v stepped": torque_figures(V_STEPPED),
-            "shipped": torque_figures({}), "yaw ramp": torque_figures(RAMP)}
+            "shipped": torque_figures({}),
+            "smoothed": torque_figures(SMOOTHED), "yaw ramp": torque_figures(RAMP)}
     print(f"{'':9} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'20 Hz line 15-20 s L/R N·m':>27}"
           f" {'step roll-back %':>17} {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
     for name, r in rows.items():
