@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from conftest import RUNNER
 
-from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, run_batch
+from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, Z_TORQUE_STEP_MAX, run_batch
 from twbr_batch.suite import TIME_LIMIT
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.metrics import series_from_messages
@@ -55,6 +55,8 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
     assert m["lockstep_timeouts"] == 0
     if m["reached"]:
         assert m["time_to_reach_s"] == pytest.approx(z[Z_REACHED_AT], rel=0.1)
+    # the motors' largest jolt, from the bag's controller_state as from the batch engine's run
+    assert m["torque_step_max_nm"] == pytest.approx(z[Z_TORQUE_STEP_MAX], rel=0.25)
     gaps = []
     # The path, each second, within 5 cm of the batch engine's for the first 15 s: the graph runs the same
     # kernels on the same states, but the yaw it reads back from odom's quaternion (and obstacles moved to the

@@ -334,6 +334,7 @@ class RunMetrics:
     w_rmse: float
     max_torque_nm: float
     max_delivered_torque_nm: float
+    torque_step_max_nm: float  # a wheel's largest commanded-torque change between two samples (issue 35)
     torque_saturated_samples: int
     cmd_vel_stale_samples: int
     collision_limited_samples: int  # commands the collision monitor lowered (twbr_control.collision_monitor)
@@ -454,6 +455,8 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
     last_status = s.sim_status[-1] if s.sim_status else None
     fallen = bool(c["fallen"].any()) or any(m.fallen for m in s.sim_status)
     commanded = max(float(np.abs(c["left_torque"]).max()), float(np.abs(c["right_torque"]).max()))
+    jolt = max((float(np.abs(np.diff(c[wheel])).max()) for wheel in ("left_torque", "right_torque")
+                if len(c[wheel]) > 1), default=0.0)
     delivered = float(np.abs(s.wheel_effort).max()) if len(s.wheel_effort) else math.nan
     # After the first transient: from TRANSIENT_S after the first non-zero reference to the end.
     moving = np.flatnonzero((np.abs(c["velocity_ref"]) > 1e-9) | (np.abs(c["yaw_rate_ref"]) > 1e-9))
@@ -482,6 +485,7 @@ def compute_metrics(s: RunSeries, scenario: str, seed: int, wall_time_s: float,
         w_rmse=_rms(c["yaw_rate"] - c["yaw_rate_ref"]),
         max_torque_nm=commanded,
         max_delivered_torque_nm=delivered,
+        torque_step_max_nm=jolt,
         torque_saturated_samples=int(c["torque_saturated"].sum()),
         cmd_vel_stale_samples=int(c["cmd_vel_stale"].sum()),
         collision_limited_samples=int(c["collision_limited"].sum()),

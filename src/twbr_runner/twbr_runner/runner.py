@@ -616,7 +616,8 @@ def summary(metrics: RunMetrics, run_dir: Path, figures: list[Path]) -> str:
         f" lockstep timeouts {m['lockstep_timeouts']}",
         f"  pitch [{f(m['pitch_min_rad'])}, {f(m['pitch_max_rad'])}] rad, settles within"
         f" {m['pitch_band_rad']} rad after {f(m['pitch_settle_time_s'], '.3f')} s;"
-        f" v rmse {f(m['v_rmse'])} m/s, w rmse {f(m['w_rmse'])} rad/s, max torque {f(m['max_torque_nm'])} N·m",
+        f" v rmse {f(m['v_rmse'])} m/s, w rmse {f(m['w_rmse'])} rad/s, max torque {f(m['max_torque_nm'])} N·m"
+        f" (largest step {f(m['torque_step_max_nm'])} N·m)",
     ]
     for key, unit in (("velocity_step", "m/s"), ("yaw_rate_step", "rad/s")):
         r = m.get(key)
