@@ -281,9 +281,10 @@ def _smoothed(h, value, samples):
     acceleration reverses from one command to the next, reaches the loop spread over the window instead of
     as one jolt of the yaw loop's torque. samples 1: the value itself, and the window starts afresh from it,
     as if it had been held all along (a step, or a limit that applies at once)."""
-    if samples <= 1:
+    if samples <= 1:  # the ring's samples are forgotten: the window is the value until it fills again
         h[H_COUNT] = 0.0
         h[H_BASE] = value
+        return value
     h[H_RING + int(h[H_NEXT])] = value
     h[H_NEXT] = (h[H_NEXT] + 1.0) % SMOOTHING_SAMPLES
     h[H_COUNT] = min(h[H_COUNT] + 1.0, SMOOTHING_SAMPLES)
@@ -359,9 +360,8 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
     if cmd_vel_stale:
         velocity_ref = 0.0
         yaw_rate_ref = 0.0
-        k[K_W_HOLD + H_HAS] = 0.0  # no ramp continued past the planner's silence, nor smoothed from before it
-        k[K_V_HOLD + H_HAS] = 0.0
-        for hold_at in (K_W_HOLD, K_V_HOLD):
+        for hold_at in (K_W_HOLD, K_V_HOLD):  # no ramp continued past the planner's silence, nor averaged
+            k[hold_at + H_HAS] = 0.0
             k[hold_at + H_COUNT] = 0.0
             k[hold_at + H_BASE] = 0.0
     velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
