@@ -5,8 +5,10 @@ Figures per wheel: the largest sample-to-sample change of the commanded torque [
 above 10 Hz [(N·m)^2, the mean square of the part of the signal above 10 Hz]. "before" is the controller with
 the reference shaping off and the gains of config/controller.yaml before issue 17 (set below); "held" is today's
 controller with each 20 Hz command of v and omega held as it comes (reference_hold.* 0); "v stepped" holds
-only v's commands as they come (issue 35: the 20 Hz sawtooth while the planner accelerates); "shipped" is
-today's defaults (v_ref and omega_ref continued along the planner's slope between its commands); "smoothed"
+only v's commands as they come (issue 35: the 20 Hz sawtooth while the planner accelerates); "catch-up 1" is
+the hold as first shipped (v_ref and omega_ref continued along the planner's slope, the gap to each command
+closed within one interval: where the planner reverses its yaw acceleration the line bends twice as hard);
+"shipped" is today's defaults (the gap closed over reference_hold.catch_up 3 intervals); "smoothed"
 is that averaged over 0.1 s while the planner ramps (reference_smoothing.*, off by default: the bends where
 its yaw acceleration reverses no longer jolt the torques, but the steering lags); "yaw ramp"
 instead limits omega_ref's rate to the planner's own max_yaw_acceleration, which spreads each command step
@@ -36,6 +38,7 @@ BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
 }
 HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0}
 V_STEPPED = {"reference_hold.velocity": 0.0}
+CATCH_UP_1 = {"reference_hold.catch_up": 1.0}
 SMOOTHED = {"reference_smoothing.yaw_rate": 0.1, "reference_smoothing.velocity": 0.1}
 RAMP = {"reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
 PLANNER_HZ = 20.0
@@ -80,12 +83,12 @@ def torque_figures(control: dict) -> dict:
 
 def main() -> int:
     rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "v stepped": torque_figures(V_STEPPED),
-            "shipped": torque_figures({}),
+            "catch-up 1": torque_figures(CATCH_UP_1), "shipped": torque_figures({}),
             "smoothed": torque_figures(SMOOTHED), "yaw ramp": torque_figures(RAMP)}
-    print(f"{'':9} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'20 Hz line 15-20 s L/R N·m':>27}"
+    print(f"{'':10} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'20 Hz line 15-20 s L/R N·m':>27}"
           f" {'step roll-back %':>17} {'settle s':>9} {'overshoot %':>12} {'run s':>6}")
     for name, r in rows.items():
-        print(f"{name:9} {r['left_max_step_nm']:8.4f}/{r['right_max_step_nm']:.4f} "
+        print(f"{name:10} {r['left_max_step_nm']:8.4f}/{r['right_max_step_nm']:.4f} "
               f"{r['left_power_above_10hz']:12.3e}/{r['right_power_above_10hz']:.3e}"
               f" {r['left_line_20hz_nm']:13.4f}/{r['right_line_20hz_nm']:.4f} {r['step_rollback_pct']:17.1f}"
               f" {r['step_settle_s']:9.3f} {r['step_overshoot_pct']:12.2f} {r['sim_time_s']:6.2f}")

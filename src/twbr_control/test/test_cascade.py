@@ -211,6 +211,11 @@ def test_a_reset_starts_the_ramps_from_zero():
     assert c.compute(0.505, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == pytest.approx(1.5 * 0.005)
 
 
+# The hold's lines as first shipped: the whole gap to the commands closed within one interval (the geometry
+# below is exact then); the default spreads it over reference_hold.catch_up intervals (the tests after them).
+CATCH_UP_AT_ONCE = {"reference_hold.catch_up": 1.0}
+
+
 def _planner_stream(controller, commands, period=0.05, rate=200.0):
     """A 20 Hz planner's commands as the controller node applies them: each from the sample after it, held
     until the next; returns the outputs of every sample."""
@@ -228,8 +233,8 @@ def test_a_planner_ramp_reaches_the_yaw_rate_loop_as_a_ramp_not_a_staircase():
     reference and the proportional term kicks the differential torque 20 times a second; continued along the
     stream's slope, the reference is the ramp itself, with no lag behind the planner's own line."""
     ramp = [0.05 * i for i in range(1, 21)]
-    held = _planner_stream(make(**{"reference_hold.yaw_rate": 0.0}), ramp)
-    smooth = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), ramp)
+    held = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 0.0}), ramp)
+    smooth = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.yaw_rate_ref_shaped for o in smooth])
     # the line through the commands where they apply (after one interval catching up with the first)
@@ -245,7 +250,7 @@ def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step
     comes back to it along a straight line within one more interval; no sample-to-sample change is larger than
     the ramp's own."""
     commands = [0.05 * i for i in range(1, 11)] + [0.5] * 6
-    outs = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), commands)
+    outs = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), commands)
     shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
     assert shaped.max() <= 0.55 + 1e-9
     assert shaped[-30:] == pytest.approx(np.full(30, 0.5))
@@ -270,8 +275,8 @@ def test_a_planner_accelerating_reaches_the_velocity_loop_as_a_ramp_without_a_20
     velocity loop's proportional term moves the wheel torques in a 20 Hz sawtooth; continued along the slope,
     v_ref is the ramp itself."""
     ramp = [0.003 * i for i in range(1, 41)]
-    held = _velocity_stream(make(**{"reference_hold.velocity": 0.0}), ramp)
-    smooth = _velocity_stream(make(**{"reference_hold.velocity": 0.15, "reference_smoothing.velocity": 0.0}), ramp)
+    held = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.0}), ramp)
+    smooth = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.15, "reference_smoothing.velocity": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.velocity_ref_shaped for o in smooth])
     line = 0.009 + 0.06 * (t - t[20])
@@ -329,8 +334,8 @@ def test_where_the_planners_yaw_acceleration_reverses_the_bend_reaches_the_loop_
     * 5 ms on each wheel, ~0.07 N·m in make demo); averaged over reference_smoothing's 0.15 s it bends over 30
     samples instead, and lags the hold's line by half the window on the straight parts."""
     weave = [0.05 * i for i in range(1, 11)] + [0.5 - 0.05 * i for i in range(1, 11)]
-    hold = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), weave)
-    rounded = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.15}),
+    hold = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), weave)
+    rounded = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.15}),
                               weave)
     # With the robot not turning (open loop), each sample's torque change is the ramp's own plus the bend's:
     # the bend is the change of that change (on a robot that follows the ramp, all that is left of it).
@@ -356,3 +361,30 @@ def test_smoothing_leaves_steps_and_the_collision_monitors_limit_at_once():
 def test_a_smoothing_window_longer_than_the_ring_is_refused_by_name():
     with pytest.raises(ConfigError, match=r"reference_smoothing\.yaw_rate.*at most 64 control periods, 0\.064 s"):
         resolve({"rate": 1000.0, "reference_smoothing.yaw_rate": 0.1})
+
+
+def test_the_default_hold_follows_a_ramp_without_lag_once_it_has_caught_up():
+    """catch_up 3: the gap left by the first command (eased in from 0) closes by a third each interval; the
+    ramp itself then reaches the loop, with no step at the commands."""
+    ramp = [0.05 * i for i in range(1, 41)]
+    outs = _planner_stream(make(**{"reference_hold.yaw_rate": 1.25}), ramp)
+    t = np.array([o.stamp for o in outs])
+    shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
+    line = 0.15 + 1.0 * (t - t[20])  # the line through the commands where they apply
+    assert np.abs(shaped[200:] - line[200:]).max() < 1e-3
+    assert np.abs(np.diff(shaped[20:])).max() <= 1.25 / 200.0 + 1e-9
+
+
+def test_where_the_planners_acceleration_reverses_the_default_hold_bends_a_third_more_not_twice():
+    """Issue 35: a planner reversing its yaw acceleration (+1 to -1 rad/s^2, a weave) bent the hold's line by
+    2 x 2 rad/s^2 in one sample when the gap was closed within one interval, a jolt of the differential
+    torque of kp x 4 rad/s^2 x 5 ms = 0.069 N·m; over three intervals the bend is 2 x (1 + 1/3) rad/s^2."""
+    weave = [0.05 * i for i in range(1, 21)] + [1.0 - 0.05 * i for i in range(1, 21)]
+    bends = {}
+    for catch_up in (1.0, 3.0):
+        c = make(**{"reference_hold.yaw_rate": 1.25, "reference_hold.catch_up": catch_up})
+        shaped = np.array([o.yaw_rate_ref_shaped for o in _planner_stream(c, weave)])
+        bends[catch_up] = np.abs(np.diff(shaped[100:], 2)).max() * 200.0  # [rad/s^2]: the slope's change in a sample
+        assert shaped.max() <= 1.0 + 0.05 + 1e-6  # past the turn's top by at most one slope x interval
+    assert bends[1.0] == pytest.approx(4.0, abs=1e-6)
+    assert bends[3.0] == pytest.approx(2.0 * (1.0 + 1.0 / 3.0), abs=0.02)

@@ -31,7 +31,7 @@ from twbr_control.pid import M_HAS_PREVIOUS, M_LIMITED, N_GAINS, N_MEMORY, Pid, 
 SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
     "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
-    "reference_hold.velocity", "reference_smoothing.yaw_rate", "reference_smoothing.velocity",
+    "reference_hold.velocity", "reference_hold.catch_up", "reference_smoothing.yaw_rate", "reference_smoothing.velocity",
     "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
@@ -47,6 +47,7 @@ C_V_RATE = SETTINGS_LAYOUT["reference_rate.velocity"]  # [m/s^2]
 C_W_RATE = SETTINGS_LAYOUT["reference_rate.yaw_rate"]  # [rad/s^2]
 C_W_HOLD = SETTINGS_LAYOUT["reference_hold.yaw_rate"]  # [rad/s^2]
 C_V_HOLD = SETTINGS_LAYOUT["reference_hold.velocity"]  # [m/s^2]
+C_HOLD_CATCH_UP = SETTINGS_LAYOUT["reference_hold.catch_up"]  # [command intervals]
 C_W_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.yaw_rate"]  # [s]
 C_V_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.velocity"]  # [s]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
@@ -237,16 +238,19 @@ def _segment_at(h, stamp):
 
 
 @inline_kernel
-def _command_hold(h, reference, command_stamp, stamp, max_slope, smoothing):
+def _command_hold(h, reference, command_stamp, stamp, max_slope, catch_up, smoothing):
     """The reference between commands (the sample-and-hold of a 20 Hz planner otherwise): on each command, a
-    straight line from where the held reference is now to where the command stream is heading one command
-    interval on (the command plus its last slope times the interval). A stream that ramps at a slope up to
-    `max_slope` (a planner's max_yaw_acceleration) then reaches the loop as the ramp itself, without lag and
-    without steps; where the slope changes the line bends instead of jumping, and the bend is rounded over
-    the last `smoothing` samples (_smoothed; 1: none). The first command after none starts from 0 at
-    `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump steeper than `max_slope` (a step asked
-    for) passes at once; 0: every command held as it is. A command changed between two stamps (the collision
-    monitor's limit, sample by sample) passes as it is. `h`: the hold's memory (H_*)."""
+    straight line along the stream's last slope (the change from the previous command over the interval),
+    corrected by the gap between the held reference and the command spread over `catch_up` intervals. A
+    stream that ramps at a slope up to `max_slope` (a planner's max_yaw_acceleration) then reaches the loop
+    as the ramp itself, without lag and without steps. Where the stream's slope changes by D the line bends
+    by D (1 + 1/catch_up) and then eases the gap out: with catch_up 1 (the whole gap closed within one
+    interval) it bent by 2 D and back by D one interval later, a jolt of the torques where a planner reversed
+    its acceleration. Bends are rounded over the last `smoothing` samples (_smoothed; 1: none). The first
+    command after none starts from 0 at `max_slope` when it is within MAX_HOLD_INTERVAL's reach. A jump
+    steeper than `max_slope` (a step asked for) passes at once; 0: every command held as it is. A command
+    changed between two stamps (the collision monitor's limit, sample by sample) passes as it is. `h`: the
+    hold's memory (H_*)."""
     if max_slope <= 0.0:
         return reference
     if h[H_HAS] == 0.0 or command_stamp > h[H_STAMP]:
@@ -255,7 +259,9 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope, smoothing):
         slope = (reference - h[H_COMMAND]) / interval if ramp else 0.0
         h[H_RAMP] = 1.0
         if ramp and abs(slope) <= max_slope * (1.0 + 1e-6):
-            start_value, end_value, duration = _segment_at(h, stamp), reference + slope * interval, interval
+            # along the stream's slope, closing the gap to the command over `catch_up` intervals
+            start_value, duration = _segment_at(h, stamp), interval
+            end_value = start_value + slope * interval - (start_value - reference) / catch_up
         elif h[H_HAS] == 0.0 and 0.0 < abs(reference) <= max_slope * MAX_HOLD_INTERVAL:
             # The first command after none (start-up, or after a stale stream): the robot was holding 0; a
             # command within one ramp's reach of it is the start of a ramp, run at max_slope from 0.
@@ -386,11 +392,11 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         # commands) then moves the proportional terms, and the torques, smoothly.
         # (no command: 0 at once, and the hold forgets the stream, so that the next command starts afresh)
         held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
-            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD],
+            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
         _rate_limit(k, K_V_SHAPED, held_velocity, c[C_V_RATE], dt)
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
-            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD],
+            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_W_SMOOTHING], c[C_PERIOD]))
         _rate_limit(k, K_W_SHAPED, held_yaw_rate, c[C_W_RATE], dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.

@@ -60,6 +60,10 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
               " m/s², with room for jitter): its 20 Hz steps reach the velocity loop as the ramp they sample, not"
               " as a torque sawtooth at 20 Hz; a steeper jump is a step (then reference_rate.velocity); 0: each"
               " command held as it comes", "m/s²", 0.0, 100.0),
+    ParamSpec("reference_hold.catch_up", 3.0, "the held references close their gap to the commands over this many"
+              " command intervals while following the commands' slope: where a planner's acceleration changes by"
+              " D the line bends by D (1 + 1/catch_up); 1 closes it within one interval and bends by 2 D and back,"
+              " a jolt of the wheel torques where the planner reverses its turn", "intervals", 1.0, 100.0),
     ParamSpec("reference_smoothing.yaw_rate", 0.0, "the yaw-rate loop sees the mean of the held omega_ref over"
               " this window while the planner ramps it: where its yaw acceleration reverses from one command to the"
               " next, the bend is spread over the window (lag: half of it) instead of one jolt of the wheel"

@@ -24,6 +24,7 @@ def test_a_peer_reaches_a_static_target_round_an_obstacle_within_the_limits(meth
     assert np.diff(v).max() <= g["max_acceleration"] * PERIOD + 1e-12
     assert -np.diff(v).max() <= g["brake_deceleration"] * PERIOD + 1e-12
     assert np.abs(np.diff(w)).max() <= g["max_yaw_acceleration"] * PERIOD + 1e-12
+    assert np.abs(np.diff(w, 2)).max() <= g["max_yaw_jerk"] * PERIOD ** 2 + 1e-12
     assert np.abs(v).max() <= g["v_max"] + 1e-12 and np.abs(w).max() <= g["max_yaw_rate"] + 1e-12
 
 

@@ -17,6 +17,7 @@ from twbr_planner.safety_filter import safety_filter
 ROBUST = {**defaults(APF_SPECS), "method": "robust"}
 PAPER = {**defaults(APF_SPECS), "method": "paper"}
 A = apf.settings_vector(ROBUST)
+JERK = ROBUST["max_yaw_jerk"]
 
 
 def memory() -> np.ndarray:
@@ -109,8 +110,9 @@ def test_the_safety_filter_keeps_the_nominal_command_when_it_is_admissible():
     m[apf.R_LAST_V] = 0.3
     positions = np.array([[10.0, 0.0]])
     v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.1, positions, np.zeros((1, 2)), np.array([0.5]),
-                                  -1)
-    assert (v, w, binding) == (0.3, pytest.approx(0.05), -1)  # the yaw rate only by its acceleration limit
+                                  -1, JERK)
+    # the yaw rate only by its acceleration limits: from a steady turn, the jerk limit's first step
+    assert (v, w, binding) == (0.3, pytest.approx(ROBUST["max_yaw_jerk"] * 0.05 * 0.05), -1)
 
 
 def test_the_safety_filter_brakes_or_turns_before_a_disc_it_would_reach():
@@ -122,7 +124,7 @@ def test_the_safety_filter_brakes_or_turns_before_a_disc_it_would_reach():
     m[apf.R_LAST_V] = 0.3
     positions = np.array([[1.0, 0.0]])
     radii = np.array([0.5])
-    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1)
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1, JERK)
     assert binding == 0
     # The look-ahead point (0.3 m ahead) is already 0.7 m from the centre, inside the barrier's 0.85 m: no
     # command within one period is admissible, and a turn does not change dh/dt here (the point moves
@@ -166,7 +168,7 @@ def test_the_safety_filter_never_reverses_a_forward_command():
     radii = np.array([0.5, 0.5])
     for nominal in (0.0, 0.2):
         v, _w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, nominal, 0.0, positions, np.zeros((2, 2)), radii,
-                                        -1)
+                                        -1, JERK)
         assert v >= 0.0
 
 
@@ -179,10 +181,11 @@ def test_a_stopped_robot_facing_a_disc_may_turn_away_through_it():
     positions = np.array([[0.97, -0.29]])
     radii = np.array([0.45])
     yaw = 0.38
-    v, w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, yaw, 0.0, -1.0, positions, np.zeros((1, 2)), radii, -1)
-    assert v == 0.0 and w == pytest.approx(-ROBUST["max_yaw_acceleration"] * 0.05)
+    v, w, _binding = safety_filter(A, 0.05, m, 0.0, 0.0, yaw, 0.0, -1.0, positions, np.zeros((1, 2)), radii, -1, JERK)
+    assert v == 0.0 and w == pytest.approx(-ROBUST["max_yaw_jerk"] * 0.05 * 0.05)  # the turn eased in
     # and it does not let the robot drive into the disc instead
-    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, -0.29, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1)
+    v, w, binding = safety_filter(A, 0.05, m, 0.0, 0.0, -0.29, 0.3, 0.0, positions, np.zeros((1, 2)), radii, -1,
+                                  JERK)
     assert v < 0.3 * 0.5 and binding == 0
 
 
@@ -264,3 +267,65 @@ def test_a_step_reads_no_distance_it_has_not_computed():
                         np.full(n, fill))
             outs.append(np.concatenate([out, m]))
         assert np.array_equal(outs[0], outs[1], equal_nan=True) and np.array_equal(outs[0], outs[2], equal_nan=True)
+
+
+def _rate_limited(settings: dict, wanted: list[float]) -> np.ndarray:
+    """The yaw-rate commands limit_rates lets through, at 20 Hz, for a stream of wanted yaw rates."""
+    a, m = apf.settings_vector(settings), memory()
+    return np.array([apf.limit_rates(a, m, 0.05 * k, 0.0, w, 1.0, a[apf.A_MAX_YAW_JERK])[1] for k, w in enumerate(wanted)])
+
+
+def test_a_reversed_turn_changes_the_yaw_acceleration_by_at_most_the_jerk_limit():
+    """Issue 35: a yaw acceleration reversed from one command to the next bends the controller's held
+    reference at once, a jolt of the wheels' torque; max_yaw_jerk spreads the reversal over several commands,
+    and a turn ends at the rate asked for without overshooting it."""
+    wanted = [1.0] * 30 + [-1.0] * 60
+    jerk = ROBUST["max_yaw_jerk"]
+    w = _rate_limited(ROBUST, wanted)
+    acceleration = np.diff(np.concatenate(([0.0], w))) / 0.05
+    assert np.abs(acceleration).max() <= ROBUST["max_yaw_acceleration"] + 1e-9
+    assert np.abs(np.diff(acceleration)).max() <= jerk * 0.05 + 1e-9
+    assert w.max() <= 1.0 + 1e-12 and w[25:30] == pytest.approx(np.ones(5))
+    assert w.min() >= -1.0 - 1e-12 and w[-5:] == pytest.approx(-np.ones(5))
+    # without the limit the acceleration flips from +1 to -1 rad/s^2 in one command
+    free = _rate_limited({**ROBUST, "max_yaw_jerk": 0.0}, [1.0] * 10 + [-1.0] * 10)
+    assert np.diff(np.diff(free)).min() == pytest.approx(-2.0 * ROBUST["max_yaw_acceleration"] * 0.05)
+
+
+def test_the_safety_filter_chooses_within_the_jerk_limited_window():
+    """The filter's candidates are what the next command can reach: one turning at full yaw acceleration
+    cannot reverse it at once, so its choice is not undone by the rate limits after it."""
+    m = memory()
+    m[apf.R_HAS_LAST] = 1.0
+    m[apf.R_LAST_OMEGA] = 0.5
+    m[apf.R_LAST_YAW_ACCELERATION] = ROBUST["max_yaw_acceleration"]
+    _, w, _ = safety_filter(A, 0.05, m, 0.0, 0.0, 0.0, 0.0, -1.0, np.empty((0, 2)), np.empty((0, 2)), np.empty(0), -1,
+                            JERK)
+    lowest = 0.5 + (ROBUST["max_yaw_acceleration"] - ROBUST["max_yaw_jerk"] * 0.05) * 0.05
+    assert w == pytest.approx(lowest)
+
+
+def test_the_jerk_limit_holds_in_ordinary_driving_and_gives_way_to_an_evasion():
+    """A person walking head-on at 0.5 m/s while the robot drives to its target: every command outside an
+    evasion changes the yaw acceleration by at most max_yaw_jerk x 50 ms; out of a threat's path the robot
+    turns as fast as its yaw acceleration allows (a late turn there is a collision, a jolt is not)."""
+    planner = ApfPlanner(ROBUST)
+    x, y, yaw, speed = 0.0, 0.0, 0.0, 0.0
+    target = Target(12.0, 0.0, 0.0, 0.0)
+    outputs, clearance = [], math.inf
+    for k in range(600):
+        t = 0.05 * k
+        person = Obstacles.of([(1, 10.0 - 0.5 * t, 0.05, 0.3, -0.5, 0.0)])
+        out = planner.step(t, x, y, yaw, speed, target, person)
+        outputs.append(out)
+        speed = out.velocity_cmd
+        yaw += 0.05 * out.yaw_rate_cmd
+        x += 0.05 * speed * math.cos(yaw)
+        y += 0.05 * speed * math.sin(yaw)
+        clearance = min(clearance, math.hypot(x - (10.0 - 0.5 * t), y - 0.05) - 0.6)
+    w = np.array([0.0] + [o.yaw_rate_cmd for o in outputs])
+    jerk_steps = np.abs(np.diff(w, 2))  # [i]: the change of the yaw acceleration at output i + 1
+    evading = np.array([o.threat_id >= 0 for o in outputs])[1:]  # a threat (the mode may say it yields to it)
+    assert evading.any() and clearance > 0.0
+    assert jerk_steps[~evading].max() <= JERK * 0.05 ** 2 + 1e-12
+    assert np.abs(np.diff(w)).max() <= ROBUST["max_yaw_acceleration"] * 0.05 + 1e-12

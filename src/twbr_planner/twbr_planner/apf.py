@@ -73,6 +73,7 @@ A_APPROACH_GAIN = SETTINGS_LAYOUT["approach_gain"]
 A_SLOW_IN_TURNS = SETTINGS_LAYOUT["slow_in_turns"]
 A_MAX_ACCELERATION = SETTINGS_LAYOUT["max_acceleration"]
 A_MAX_YAW_ACCELERATION = SETTINGS_LAYOUT["max_yaw_acceleration"]
+A_MAX_YAW_JERK = SETTINGS_LAYOUT["max_yaw_jerk"]
 A_STUCK_TIME = SETTINGS_LAYOUT["stuck_time"]
 A_STUCK_PROGRESS = SETTINGS_LAYOUT["stuck_progress"]
 A_REPULSION_RANGE = SETTINGS_LAYOUT["repulsion_range"]
@@ -116,13 +117,14 @@ A_SAFETY_MOVING_NEAR = SETTINGS_LAYOUT["safety_moving_near"]
 # Memory vector: the last command (for the acceleration limits), the progress ring's head and length, and
 # the robust method's boundary following (on or off, side +1 / -1, distance to the target and time when
 # it began, whether the last step found no progress, and the side of the last way round).
-MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "head", "length", "following",
+MEMORY_LAYOUT = Layout(("has_last", "last_stamp", "last_v", "last_omega", "last_yaw_acceleration", "head", "length", "following",
                         "follow_side", "hit_distance", "follow_since", "stalled", "way_side", "evade_threat",
                         "evade_side"))
 R_HAS_LAST = MEMORY_LAYOUT["has_last"]
 R_LAST_STAMP = MEMORY_LAYOUT["last_stamp"]
 R_LAST_V = MEMORY_LAYOUT["last_v"]
 R_LAST_OMEGA = MEMORY_LAYOUT["last_omega"]
+R_LAST_YAW_ACCELERATION = MEMORY_LAYOUT["last_yaw_acceleration"]
 R_HEAD = MEMORY_LAYOUT["head"]
 R_LENGTH = MEMORY_LAYOUT["length"]
 R_FOLLOWING = MEMORY_LAYOUT["following"]
@@ -327,14 +329,44 @@ def command_period(m, stamp):
 
 
 @kernel
-def limit_rates(a, m, stamp, v, omega, deceleration):
+def yaw_rate_window(a, m, dt, jerk):
+    """(lowest, highest) yaw rate [rad/s] the next command may take `dt` [s] after the last: within
+    max_yaw_rate, within max_yaw_acceleration of the last command, and (`jerk` [rad/s³] > 0) with a yaw
+    acceleration within jerk * dt of the last one. The controller's command hold follows the command stream's
+    slope; where that slope reverses at once the yaw loop's proportional term steps the wheels' torque."""
+    accel = a[A_MAX_YAW_ACCELERATION]
+    lo = -accel
+    hi = accel
+    if jerk > 0.0:
+        lo = min(max(m[R_LAST_YAW_ACCELERATION] - jerk * dt, -accel), accel)
+        hi = max(min(m[R_LAST_YAW_ACCELERATION] + jerk * dt, accel), -accel)
+    return (max(m[R_LAST_OMEGA] + lo * dt, -a[A_MAX_YAW_RATE]),
+            min(m[R_LAST_OMEGA] + hi * dt, a[A_MAX_YAW_RATE]))
+
+
+@kernel
+def eased_yaw_rate(m, omega, dt, jerk):
+    """The yaw rate on the way to `omega` whose acceleration can still be taken back to zero at `jerk`
+    before it arrives (|acceleration| <= sqrt(2 jerk |error|)): a turn ends without overshoot."""
+    if jerk <= 0.0 or dt <= 0.0:
+        return omega
+    error = omega - m[R_LAST_OMEGA]
+    accel = min(abs(error) / dt, math.sqrt(2.0 * jerk * abs(error)))
+    return m[R_LAST_OMEGA] + math.copysign(accel * dt, error)
+
+
+@kernel
+def limit_rates(a, m, stamp, v, omega, deceleration, jerk):
     """Acceleration limits (a velocity smoother): a balancing robot must lean to accelerate, so a
     speed step is a pitch transient; these keep |pitch| within about a/g of upright. The speed rises at
-    most by max_acceleration and falls at most by `deceleration`; the memory takes the command."""
+    most by max_acceleration and falls at most by `deceleration`; the yaw rate moves within
+    yaw_rate_window (eased in at `jerk`); the memory takes the command."""
     dt = command_period(m, stamp)
-    dw = a[A_MAX_YAW_ACCELERATION] * dt
     v = min(max(v, m[R_LAST_V] - deceleration * dt), m[R_LAST_V] + a[A_MAX_ACCELERATION] * dt)
-    omega = min(max(omega, m[R_LAST_OMEGA] - dw), m[R_LAST_OMEGA] + dw)
+    w_lo, w_hi = yaw_rate_window(a, m, dt, jerk)
+    omega = min(max(eased_yaw_rate(m, omega, dt, jerk), w_lo), w_hi)
+    if dt > 0.0:
+        m[R_LAST_YAW_ACCELERATION] = (omega - m[R_LAST_OMEGA]) / dt
     m[R_HAS_LAST] = 1.0
     m[R_LAST_STAMP] = stamp
     m[R_LAST_V] = v
@@ -353,8 +385,9 @@ def ramp_speed(a, v, v_goal, dt):
 
 @kernel
 def _smooth(a, m, stamp, v, omega):
-    """The paper method's limits: the same rate up and down."""
-    return limit_rates(a, m, stamp, v, omega, a[A_MAX_ACCELERATION])
+    """The paper method's limits: the same rate up and down, and no jerk limit (its field steers through the
+    slew limit: with max_yaw_jerk its static run arrived 45.2 -> 53.3 s, benchmarks/HISTORY.md)."""
+    return limit_rates(a, m, stamp, v, omega, a[A_MAX_ACCELERATION], 0.0)
 
 
 @kernel

@@ -34,6 +34,7 @@ from twbr_planner.apf import (
     A_K_P,
     A_K_V,
     A_MAX_YAW_ACCELERATION,
+    A_MAX_YAW_JERK,
     A_MAX_YAW_RATE,
     A_RHO_O,
     A_ROBOT_RADIUS,
@@ -131,6 +132,6 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, best_v, best_w)
     if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
         mode = STUCK
-    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], a[A_MAX_YAW_JERK])
     write_output(out, f_att_x, f_att_y, 0.0, 0.0, best_yaw, wrap_angle(best_yaw - yaw), v, omega, distance, nearest_d,
                  nearest, mode, 0.0, -1.0, -1.0)

@@ -40,6 +40,10 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " leans about a/g to accelerate)", "m/s²", 0.0, 100.0, low_open=True),
     ParamSpec("max_yaw_acceleration", 1.0, "limit of the yaw-rate command's rate of change", "rad/s²", 0.0, 1000.0,
               low_open=True),
+    ParamSpec("max_yaw_jerk", 10.0, "robust, dwa, vo: limit of the yaw acceleration's change from one command to"
+              " the next (and the yaw rate eased into its goal): a turn reversed at once jolts the wheels' torque"
+              " through the yaw loop; robust drops it while evading a threat (a late turn there is a collision); the"
+              " paper's method has none; 0: no limit", "rad/s³", 0.0, 1e6),
     ),
     ParamSpec("stuck_time", 8.0, "no progress over this long is reported as stuck (a local minimum)", "s",
               0.1, 1000.0),

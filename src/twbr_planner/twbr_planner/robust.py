@@ -24,6 +24,7 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_BRAKE_DECELERATION,
+    A_MAX_YAW_JERK,
     A_RHO_O,
     A_SAFETY_FILTER,
     AVOIDING,
@@ -95,9 +96,12 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
                                            radii)
         if yielding:
             mode = YIELDING
+    # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path the robot turns at once
+    jerk = a[A_MAX_YAW_JERK] if threat < 0 else 0.0
     binding = -1
     if a[A_SAFETY_FILTER] != 0.0 and not arrived:
-        v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat)
-    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
+        v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat,
+                                          jerk)
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], jerk)
     write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
                  side, threat, binding)

@@ -13,8 +13,6 @@ from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_BRAKE_DECELERATION,
     A_MAX_ACCELERATION,
-    A_MAX_YAW_ACCELERATION,
-    A_MAX_YAW_RATE,
     A_RHO_O,
     A_ROBOT_RADIUS,
     A_SAFETY_GAMMA,
@@ -25,16 +23,16 @@ from twbr_planner.apf import (
     A_SAFETY_YAW_RATE_SAMPLES,
     A_SAFETY_YAW_RATE_WEIGHT,
     A_V_MAX,
-    R_LAST_OMEGA,
     R_LAST_V,
     command_period,
+    yaw_rate_window,
 )
 
 VIOLATION_TIE = 1e-6  # [m^2/s] violations this close count as equal (rounding, not a tuning)
 
 
 @kernel
-def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii, threat):
+def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, velocities, radii, threat, jerk):
     """(v, omega, index of the binding obstacle or -1): the admissible command nearest the nominal one.
 
     The obstacle being evaded (`threat`, -1 none) is left to the evasion: a barrier on the distance alone
@@ -42,13 +40,11 @@ def safety_filter(a, stamp, m, x, y, yaw, v_nominal, omega_nominal, positions, v
     dt = command_period(m, stamp)
     n_v = int(a[A_SAFETY_SPEED_SAMPLES])
     n_w = int(a[A_SAFETY_YAW_RATE_SAMPLES])
-    dw = a[A_MAX_YAW_ACCELERATION] * dt
     # it reverses only when the command does (and then guards the point behind the axle)
     v_lo = max(m[R_LAST_V] - a[A_BRAKE_DECELERATION] * dt, min(0.0, v_nominal), -a[A_V_MAX])
     v_hi = min(m[R_LAST_V] + a[A_MAX_ACCELERATION] * dt, a[A_V_MAX])
     v_lo = min(v_lo, v_hi)  # a robot still reversing slows down first
-    w_lo = max(m[R_LAST_OMEGA] - dw, -a[A_MAX_YAW_RATE])
-    w_hi = min(m[R_LAST_OMEGA] + dw, a[A_MAX_YAW_RATE])
+    w_lo, w_hi = yaw_rate_window(a, m, dt, jerk)
     v0 = min(max(v_nominal, v_lo), v_hi)
     w0 = min(max(omega_nominal, w_lo), w_hi)
     v_nominal = float(v_nominal)

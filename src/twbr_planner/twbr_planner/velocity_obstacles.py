@@ -24,6 +24,7 @@ from twbr_planner.apf import (
     A_K_P,
     A_K_S,
     A_K_V,
+    A_MAX_YAW_JERK,
     A_MAX_YAW_RATE,
     A_RHO_O,
     A_ROBOT_RADIUS,
@@ -119,6 +120,6 @@ def vo_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target
     mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
     if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
         mode = STUCK
-    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION])
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], a[A_MAX_YAW_JERK])
     write_output(out, f_att_x, f_att_y, 0.0, 0.0, alpha, error, v, omega, distance, nearest_d, nearest, mode, 0.0,
                  -1.0, -1.0)
