@@ -234,7 +234,8 @@ def test_a_planner_ramp_reaches_the_yaw_rate_loop_as_a_ramp_not_a_staircase():
     stream's slope, the reference is the ramp itself, with no lag behind the planner's own line."""
     ramp = [0.05 * i for i in range(1, 21)]
     held = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 0.0}), ramp)
-    smooth = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), ramp)
+    smooth = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+                                     "reference_smoothing.yaw_rate": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.yaw_rate_ref_shaped for o in smooth])
     # the line through the commands where they apply (after one interval catching up with the first)
@@ -250,7 +251,8 @@ def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step
     comes back to it along a straight line within one more interval; no sample-to-sample change is larger than
     the ramp's own."""
     commands = [0.05 * i for i in range(1, 11)] + [0.5] * 6
-    outs = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), commands)
+    outs = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+                                   "reference_smoothing.yaw_rate": 0.0}), commands)
     shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
     assert shaped.max() <= 0.55 + 1e-9
     assert shaped[-30:] == pytest.approx(np.full(30, 0.5))
@@ -276,7 +278,8 @@ def test_a_planner_accelerating_reaches_the_velocity_loop_as_a_ramp_without_a_20
     v_ref is the ramp itself."""
     ramp = [0.003 * i for i in range(1, 41)]
     held = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.0}), ramp)
-    smooth = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.15, "reference_smoothing.velocity": 0.0}), ramp)
+    smooth = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.15,
+                                      "reference_smoothing.velocity": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.velocity_ref_shaped for o in smooth])
     line = 0.009 + 0.06 * (t - t[20])
@@ -334,9 +337,10 @@ def test_where_the_planners_yaw_acceleration_reverses_the_bend_reaches_the_loop_
     * 5 ms on each wheel, ~0.07 N·m in make demo); averaged over reference_smoothing's 0.15 s it bends over 30
     samples instead, and lags the hold's line by half the window on the straight parts."""
     weave = [0.05 * i for i in range(1, 11)] + [0.5 - 0.05 * i for i in range(1, 11)]
-    hold = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0}), weave)
-    rounded = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.15}),
-                              weave)
+    hold = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+                                   "reference_smoothing.yaw_rate": 0.0}), weave)
+    rounded = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+                                      "reference_smoothing.yaw_rate": 0.15}), weave)
     # With the robot not turning (open loop), each sample's torque change is the ramp's own plus the bend's:
     # the bend is the change of that change (on a robot that follows the ramp, all that is left of it).
     jolts = [np.abs(np.diff([o.differential_torque for o in outs[20:]], 2)).max() for outs in (hold, rounded)]
