@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+from unicycle import drive as drive_unicycle
 
 from twbr_common.params import defaults
 from twbr_planner import apf
@@ -309,20 +310,7 @@ def test_the_jerk_limit_holds_in_ordinary_driving_and_gives_way_to_an_evasion():
     """A person walking head-on at 0.5 m/s while the robot drives to its target: every command outside an
     evasion changes the yaw acceleration by at most max_yaw_jerk x 50 ms; out of a threat's path the robot
     turns as fast as its yaw acceleration allows (a late turn there is a collision, a jolt is not)."""
-    planner = ApfPlanner(ROBUST)
-    x, y, yaw, speed = 0.0, 0.0, 0.0, 0.0
-    target = Target(12.0, 0.0, 0.0, 0.0)
-    outputs, clearance = [], math.inf
-    for k in range(600):
-        t = 0.05 * k
-        person = Obstacles.of([(1, 10.0 - 0.5 * t, 0.05, 0.3, -0.5, 0.0)])
-        out = planner.step(t, x, y, yaw, speed, target, person)
-        outputs.append(out)
-        speed = out.velocity_cmd
-        yaw += 0.05 * out.yaw_rate_cmd
-        x += 0.05 * speed * math.cos(yaw)
-        y += 0.05 * speed * math.sin(yaw)
-        clearance = min(clearance, math.hypot(x - (10.0 - 0.5 * t), y - 0.05) - 0.6)
+    _poses, outputs, clearance = drive_unicycle("robust", (12.0, 0.0), [(1, 10.0, 0.05, 0.3, -0.5, 0.0)], seconds=30.0)
     w = np.array([0.0] + [o.yaw_rate_cmd for o in outputs])
     jerk_steps = np.abs(np.diff(w, 2))  # [i]: the change of the yaw acceleration at output i + 1
     evading = np.array([o.threat_id >= 0 for o in outputs])[1:]  # a threat (the mode may say it yields to it)
