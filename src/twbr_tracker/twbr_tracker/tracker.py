@@ -14,6 +14,7 @@ from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
     TR_ID,
+    TR_LOST,
     TR_MOVING,
     TR_RADIUS,
     TR_VX,
@@ -72,7 +73,7 @@ class Tracker:
         self.n, self.next_id = track_step(self._k, self.tracks, self.cov, self.n, self.next_id, t, discs, m)
         out = [TrackedObstacle(int(r[TR_ID]), float(r[TR_X]), float(r[TR_Y]), float(r[TR_VX]) * r[TR_MOVING],
                                float(r[TR_VY]) * r[TR_MOVING], float(r[TR_RADIUS]))
-               for r in self.tracks[:self.n] if r[TR_CONFIRMED] != 0.0]
+               for r in self.tracks[:self.n] if r[TR_CONFIRMED] != 0.0 and r[TR_LOST] == 0.0]
         walls = [d for d in discs[:m] if d[DC_WALL] != 0.0]
         out += [TrackedObstacle(WALL_IDS + k, float(d[DC_X]), float(d[DC_Y]), 0.0, 0.0, float(d[DC_RADIUS]))
                 for k, d in enumerate(walls)]

@@ -12,6 +12,12 @@ where the person must be). Its gate widens with its uncertainty (three position 
 most `max_gate`), so it takes the person back when they reappear instead of a new track being born:
 in a crowd most of a track's gaps are such occlusions, and each new id is an ID switch.
 
+A confirmed track that is dropped anyway (hidden longer than `max_coast`, out of range, missed) is not
+forgotten at once: it is kept unpublished ("lost") on its prediction until `reidentify_time` after its last
+match, and a disc that no live track takes and that lies within a lost track's gate takes that track back,
+id and all, instead of starting a new one (the lost-track buffer of SORT-family trackers: Wojke, Bewley &
+Paulus 2017, DeepSORT's max_age; here on position alone, since a scan has no appearance).
+
 The state is (x, y, vx, vy) in odom [m, m/s]; the motion model is white-noise acceleration of spectral
 density `acceleration_noise` (Bar-Shalom, Li & Kirubarajan 2001, ch. 6: Q for a step dt is
 q [dt^3/3, dt^2/2; dt^2/2, dt] per axis); a disc's centre is measured with std `position_noise`. A wall's
@@ -51,13 +57,15 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
               low_open=True),
     ParamSpec("tracking.clipped_noise", 0.3, "std of a clipped disc's centre (partly hidden: detection's"
               " DC_CLIPPED): it keeps its track but hardly moves it", "m", 0.0, 10.0, low_open=True),
+    ParamSpec("tracking.reidentify_time", 8.0, "a dropped confirmed track is kept unpublished this long after its"
+              " last match, and a new disc within its gate takes it back with its id (0: off)", "s", 0.0, 600.0),
     ParamSpec("tracking.occlusion_margin", 0.2, "a beam shorter than a track's near side by this much passes in"
               " front of it", "m", 0.0, 5.0),
 )
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
                           "initial_speed_std", "moving_speed", "max_tracks", "max_coast", "max_gate",
-                          "clipped_noise", "occlusion_margin"))
+                          "clipped_noise", "occlusion_margin", "reidentify_time"))
 TS_GATE = SETTINGS_LAYOUT["gate"]
 TS_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
 TS_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
@@ -70,10 +78,11 @@ TS_MAX_COAST = SETTINGS_LAYOUT["max_coast"]
 TS_MAX_GATE = SETTINGS_LAYOUT["max_gate"]
 TS_CLIPPED_NOISE = SETTINGS_LAYOUT["clipped_noise"]
 TS_OCCLUSION_MARGIN = SETTINGS_LAYOUT["occlusion_margin"]
+TS_REIDENTIFY_TIME = SETTINGS_LAYOUT["reidentify_time"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 TRACK_LAYOUT = Layout(("id", "x", "y", "vx", "vy", "radius", "hits", "misses", "confirmed", "moving", "t",
-                       "born", "seen", "occluded"))
+                       "born", "seen", "occluded", "lost"))
 TR_ID = TRACK_LAYOUT["id"]
 TR_X = TRACK_LAYOUT["x"]
 TR_Y = TRACK_LAYOUT["y"]
@@ -88,6 +97,7 @@ TR_T = TRACK_LAYOUT["t"]  # [s] the instant the state is at
 TR_BORN = TRACK_LAYOUT["born"]  # [s]
 TR_SEEN = TRACK_LAYOUT["seen"]  # [s] its last match
 TR_OCCLUDED = TRACK_LAYOUT["occluded"]  # 1: hidden behind closer returns in the last scan
+TR_LOST = TRACK_LAYOUT["lost"]  # 1: dropped, unpublished, kept for re-identification
 N_TRACK = len(TRACK_LAYOUT)
 
 
@@ -195,6 +205,74 @@ def gate_of(s, cov):
 
 
 @kernel
+def _associate(s, tracks, cov, n, discs, compact, m, taken, match, lost):
+    """Hungarian assignment of the discs not yet taken to the live tracks (lost False) or to the lost ones
+    (lost True), each track's distance scaled by its own gate (gate_of); fills match and taken."""
+    rows = np.empty(n, dtype=np.int64)
+    n_rows = 0
+    for j in range(n):
+        if (tracks[j, TR_LOST] != 0.0) == lost:
+            rows[n_rows] = j
+            n_rows += 1
+    cols = np.empty(m, dtype=np.int64)
+    n_cols = 0
+    for k in range(m):
+        if not taken[k]:
+            cols[n_cols] = k
+            n_cols += 1
+    if n_rows == 0 or n_cols == 0:
+        return
+    cost = np.empty((n_rows, n_cols))
+    for r in range(n_rows):
+        j = rows[r]
+        scale = s[TS_GATE] / gate_of(s, cov[j])  # a distance within the track's own gate is within `gate`
+        for c in range(n_cols):
+            d = compact[cols[c]]
+            cost[r, c] = scale * math.hypot(discs[d, DC_X] - tracks[j, TR_X], discs[d, DC_Y] - tracks[j, TR_Y])
+    pairs = np.empty(n_rows, dtype=np.int64)
+    assign(cost, s[TS_GATE], pairs)
+    for r in range(n_rows):
+        if pairs[r] >= 0:
+            match[rows[r]] = cols[pairs[r]]
+            taken[cols[pairs[r]]] = True
+
+
+@kernel
+def _revive(s, track, cov, t, zx, zy):
+    """A lost track taken back by the disc at (zx, zy) [m]: there now, at the mean velocity from its last
+    match to here (its prediction is that match carried at its old velocity), with the covariance of a
+    velocity from two fixes `gap` apart plus the random walk of the velocity over the gap."""
+    gap = max(t - track[TR_SEEN], 1e-3)
+    track[TR_VX] += (zx - track[TR_X]) / gap
+    track[TR_VY] += (zy - track[TR_Y]) / gap
+    track[TR_X] = zx
+    track[TR_Y] = zy
+    variance = s[TS_POSITION_NOISE] ** 2
+    cov[:, :] = 0.0
+    cov[0, 0] = cov[1, 1] = variance
+    cov[2, 2] = cov[3, 3] = 2.0 * variance / gap ** 2 + s[TS_ACCELERATION_NOISE] * gap / 3.0
+    track[TR_LOST] = 0.0
+    track[TR_MISSES] = 0.0
+    track[TR_HITS] += 1.0
+    track[TR_SEEN] = t
+
+
+@kernel
+def _evict_lost(tracks, cov, n):
+    """Drop the lost track last matched longest ago, if there is one; returns the new n."""
+    oldest = -1
+    for j in range(n):
+        if tracks[j, TR_LOST] != 0.0 and (oldest < 0 or tracks[j, TR_SEEN] < tracks[oldest, TR_SEEN]):
+            oldest = j
+    if oldest < 0:
+        return n
+    n -= 1
+    tracks[oldest, :] = tracks[n, :]
+    cov[oldest, :, :] = cov[n, :, :]
+    return n
+
+
+@kernel
 def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     """One scan's discs (detection's rows) at time t [s] into the tracks tracks[:n] (their TR_OCCLUDED
     marked for this scan, mark_occluded); returns the new (n, next_id). Rows move: a dropped track's row
@@ -207,17 +285,17 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         if discs[d, DC_WALL] == 0.0:
             compact[m] = d
             m += 1
-    cost = np.empty((n, m))
-    for j in range(n):
-        scale = s[TS_GATE] / gate_of(s, cov[j])  # a distance within the track's own gate is within `gate`
-        for k in range(m):
-            d = compact[k]
-            cost[j, k] = scale * math.hypot(discs[d, DC_X] - tracks[j, TR_X], discs[d, DC_Y] - tracks[j, TR_Y])
-    match = np.empty(n, dtype=np.int64)
-    assign(cost, s[TS_GATE], match)
     taken = np.zeros(m, dtype=np.bool_)
+    match = np.full(n, -1, dtype=np.int64)
+    _associate(s, tracks, cov, n, discs, compact, m, taken, match, False)
+    _associate(s, tracks, cov, n, discs, compact, m, taken, match, True)  # the discs left, to the lost tracks
     for j in range(n):
         k = match[j]
+        if tracks[j, TR_LOST] != 0.0:
+            if k >= 0:  # re-identified: the track is back, id and all
+                d = compact[k]
+                _revive(s, tracks[j], cov[j], t, discs[d, DC_X], discs[d, DC_Y])
+            continue
         if k >= 0:
             d = compact[k]
             taken[k] = True
@@ -241,15 +319,27 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     j = 0
     while j < n:  # drop: a tentative track at its first miss, a confirmed one after max_misses or max_coast
         limit = s[TS_MAX_MISSES] if tracks[j, TR_CONFIRMED] != 0.0 else 0.0
-        if tracks[j, TR_MISSES] > limit or t - tracks[j, TR_SEEN] > s[TS_MAX_COAST] + 1e-9:
+        since = t - tracks[j, TR_SEEN]
+        if tracks[j, TR_LOST] != 0.0:
+            gone = since > s[TS_REIDENTIFY_TIME] + 1e-9
+        else:
+            gone = tracks[j, TR_MISSES] > limit or since > s[TS_MAX_COAST] + 1e-9
+            if gone and tracks[j, TR_CONFIRMED] != 0.0 and since <= s[TS_REIDENTIFY_TIME] + 1e-9:
+                tracks[j, TR_LOST] = 1.0  # kept, unpublished, for re-identification
+                gone = False
+        if gone:
             n -= 1
             tracks[j, :] = tracks[n, :]
             cov[j, :, :] = cov[n, :, :]
         else:
             j += 1
     for k in range(m):  # births
-        if taken[k] or n >= tracks.shape[0]:
+        if taken[k]:
             continue
+        if n >= tracks.shape[0]:
+            n = _evict_lost(tracks, cov, n)  # a full table makes room from its oldest lost track
+            if n >= tracks.shape[0]:
+                continue
         d = compact[k]
         tracks[n, :] = 0.0
         tracks[n, TR_ID] = next_id
