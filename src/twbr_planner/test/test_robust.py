@@ -14,6 +14,7 @@ from twbr_planner.field import ray_clearance
 from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import APF_SPECS
 from twbr_planner.safety_filter import safety_filter
+from twbr_planner.speed_policy import speed
 
 ROBUST = {**defaults(APF_SPECS), "method": "robust"}
 PAPER = {**defaults(APF_SPECS), "method": "paper"}
@@ -145,6 +146,26 @@ def test_the_robust_speed_brakes_no_harder_than_brake_deceleration_and_rises_at_
     drops = -np.diff([v[-1], *after])
     assert drops.max() <= ROBUST["brake_deceleration"] * 0.05 + 1e-12
     assert drops.max() > ROBUST["max_acceleration"] * 0.05  # it does brake harder than it accelerates
+
+
+def test_the_speed_can_stop_before_what_is_ahead_or_turned_to_but_not_for_a_disc_beside_the_way():
+    """speed_policy: at most sqrt(2 b room), room the clearance along the heading and along the direction
+    the robot turns to; a disc beside the way (0.3 m off the footprint) leaves v_max."""
+    b, margin = ROBUST["brake_deceleration"], ROBUST["safety_margin"]
+    still = np.zeros(1, dtype=np.bool_)
+
+    def v(error, disc):
+        positions = np.array([disc])
+        return speed(A, 0.0, 0.0, 0.0, error, 1.0, -1, positions, np.array([0.4]), still, math.inf)
+
+    room = 2.0 - 0.4 - ROBUST["robot_radius"] - margin
+    assert v(0.0, (2.0, 0.0)) == pytest.approx(math.sqrt(2.0 * b * room))  # ahead: 1.3 m to stop in
+    beside = v(0.0, (0.0, 1.0))
+    assert beside == pytest.approx(ROBUST["v_max"])  # 0.3 m beside the footprint: no brake for it
+    # 0.8 rad to the left, where it turns to, 1.2 m away (0.86 m off the heading: not ahead)
+    turned = v(0.8, (1.2 * math.cos(0.8), 1.2 * math.sin(0.8)))
+    assert turned == pytest.approx(math.sqrt(2.0 * b * (1.2 - 0.4 - ROBUST["robot_radius"] - margin)))
+    assert turned < ROBUST["v_max"] * math.cos(0.8)  # what slowing in turns alone would allow
 
 
 def test_the_paper_method_is_unchanged_by_the_robust_parameters():

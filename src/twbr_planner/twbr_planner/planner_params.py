@@ -93,8 +93,9 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("brake_deceleration", 0.12, "robust: the speed may fall this fast (it rises at most by"
               " max_acceleration): the speed policy and the safety filter brake with it; a balancing robot leans"
               " back about a/g to brake", "m/s²", 0.0, 100.0, low_open=True),
-    ParamSpec("speed_policy", True, "robust: at most the speed that max_acceleration stops before the first static"
-              " obstacle ahead and the nearest one, never slowed by a moving obstacle being evaded (false: eq. 28)"),
+    ParamSpec("speed_policy", True, "robust: at most the speed that brake_deceleration stops before the first"
+              " obstacle ahead and the first one the way it turns to, never slowed by a moving obstacle being evaded"
+              " (false: eq. 28)"),
     ParamSpec("safety_filter", True, "robust: a control barrier function per obstacle keeps the command"
               " admissible (within one period's acceleration)"),
     ParamSpec("safety_gamma", 0.5, "robust: the barrier's rate: dh/dt + safety_gamma h >= 0", "1/s", 0.0, 1000.0,
@@ -112,7 +113,7 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("safety_moving_near", 0.5, "robust: an obstacle faster than the robot is guarded against only"
               " within this clearance (farther, evasion handles it: a barrier would turn the robot along its"
               " path)", "m", 0.0, 100.0),
-    ParamSpec("yield_horizon", 5.0, "robust: how far ahead the command's rollout is checked against the moving"
+    ParamSpec("yield_horizon", 6.5, "robust: how far ahead the command's rollout is checked against the moving"
               " obstacles' predicted discs; a conflict makes the robot wait, step aside or back out (yielding.py);"
               " 0 turns it off", "s", 0.0, 60.0),
     ParamSpec("yield_uncertainty", 0.2, "robust: a moving obstacle's predicted disc grows by this share of the"

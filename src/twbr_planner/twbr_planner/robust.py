@@ -65,10 +65,6 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     (f_att_x, f_att_y, f_rep_x, f_rep_y, gx, gy, blocked_at, way_x, way_y, way_free, total_x,
      total_y) = field(a, m, x, y, yaw, vx, vy, target_x, target_y, target_vx, target_vy, distance, positions, radii,
                       distances, moving)
-    nearest_static = math.inf
-    for j in range(radii.shape[0]):
-        if not moving[j]:
-            nearest_static = min(nearest_static, distances[j])
     nearest, nearest_d = nearest_obstacle(distances)
     mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
     total_x, total_y, side, escaping = escape(a, m, stamp, x, y, distance, moving_target, target_x, target_y, gx, gy,
@@ -81,7 +77,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
         mode = EVADING
     # 4. the command
     alpha, error, omega, direction = steer(a, m, yaw, total_x, total_y, threat)
-    v = speed(a, x, y, yaw, error, direction, threat, positions, radii, moving, nearest_static, nearest_d)
+    v = speed(a, x, y, yaw, error, direction, threat, positions, radii, moving, nearest_d)
     mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
     if arrived:
         m[R_FOLLOWING] = 0.0

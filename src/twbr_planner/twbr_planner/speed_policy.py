@@ -1,9 +1,9 @@
 """Robust addition 4, the command from the direction: the yaw rate (the paper's eq. 27, with two rules for a
 way behind the robot) and a speed policy for a robot that must lean to brake.
 
-The speed is at most the one from which `brake_deceleration` stops the robot before the first static
-obstacle ahead and before the nearest one (it may turn towards it), and it is never slowed by a moving
-obstacle being evaded (braking in its path is what evasion avoids). speed_policy: false gives eq. 28."""
+The speed is at most the one from which `brake_deceleration` stops the robot before the first obstacle
+ahead and before the first one in the direction it turns to, and it is never slowed by a moving obstacle
+being evaded (braking in its path is what evasion avoids). speed_policy: false gives eq. 28."""
 
 from __future__ import annotations
 
@@ -52,17 +52,22 @@ def steer(a, m, yaw, total_x, total_y, threat):
 
 
 @kernel
-def speed(a, x, y, yaw, error, direction, threat, positions, radii, moving, nearest_static, nearest_d):
+def speed(a, x, y, yaw, error, direction, threat, positions, radii, moving, nearest_d):
     """[m/s] the signed speed command before arrival, yielding and the safety filter."""
     v = a[A_V_MAX]
     if a[A_SLOW_IN_TURNS] != 0.0 and not (threat >= 0 and abs(error) < 0.5 * math.pi):
         v *= max(0.0, math.cos(error))  # turn before driving, except out of a threat's path
     if a[A_SPEED_POLICY] != 0.0:
-        # able to stop before the first static obstacle ahead, and (the robot may turn towards any of them)
-        # before the nearest static one; a moving obstacle being evaded does not slow the robot down
+        # able to stop before the first obstacle ahead and before the first one the way it turns to (a moving
+        # obstacle being evaded does not slow the robot down); a disc beside the way does not slow it: the
+        # safety filter keeps the robot from turning into it
+        reach = a[A_RHO_O] * 4.0
+        skip_moving = threat >= 0
         ahead = ray_clearance(x, y, direction * math.cos(yaw), direction * math.sin(yaw), positions, radii,
-                              a[A_ROBOT_RADIUS], a[A_RHO_O] * 4.0, moving, threat >= 0)
-        room = min(ahead, nearest_static) - a[A_SAFETY_MARGIN]
+                              a[A_ROBOT_RADIUS], reach, moving, skip_moving)
+        turn_to = ray_clearance(x, y, direction * math.cos(yaw + error), direction * math.sin(yaw + error), positions,
+                                radii, a[A_ROBOT_RADIUS], reach, moving, skip_moving)
+        room = min(ahead, turn_to) - a[A_SAFETY_MARGIN]
         v = min(v, math.sqrt(2.0 * a[A_BRAKE_DECELERATION] * max(room, 0.0)))
     else:
         v = min(v, a[A_V_MAX] * max(min(nearest_d, a[A_RHO_O]), 0.0) / a[A_RHO_O])  # eq. 28
