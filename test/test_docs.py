@@ -164,6 +164,13 @@ def test_the_readme_s_people_figures_are_the_study_s():
     for layout, rate in pairs:
         assert float(rate) == round(100 * people["layouts"][layout]["robust"]["success_rate"], 1), layout
     assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
+    # and the same layouts over the suite study's seeds, in the same order
+    suite = _result("suite.json")
+    longer = re.search(r"on clutter_movers \(([0-9]+) seeds: ([0-9., ]+) %", text)
+    assert longer, "README.md lost the suite study's figures beside the people figures"
+    assert int(longer[1]) == suite["runs_per_cell"]
+    rates = [float(r) for r in longer[2].split(", ")]
+    assert rates == [round(100 * suite["layouts"][layout]["robust"]["success_rate"], 1) for layout, _ in pairs]
 
 
 def test_the_suite_and_ablation_tables_docs_planner_shows_are_the_study_s():
