@@ -116,7 +116,7 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("yield_horizon", 6.5, "robust: how far ahead the command's rollout is checked against the moving"
               " obstacles' predicted discs; a conflict makes the robot wait, step aside or back out (yielding.py);"
               " 0 turns it off", "s", 0.0, 60.0),
-    ParamSpec("yield_uncertainty", 0.2, "robust: a moving obstacle's predicted disc grows by this share of the"
+    ParamSpec("yield_uncertainty", 0.1, "robust: a moving obstacle's predicted disc grows by this share of the"
               " distance it walks (it may turn, slow down or stop)", "", 0.0, 10.0),
     ParamSpec("yield_margin", 0.1, "robust: clearance the look-ahead keeps from the predicted discs", "m", 0.0,
               10.0),
