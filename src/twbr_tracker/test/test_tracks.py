@@ -12,7 +12,7 @@ from twbr_common.params import defaults
 from twbr_sim.lidar import LIDAR_SPECS, LIDAR_STREAM, cast_scan, scan_noise
 from twbr_sim.lidar import settings_vector as lidar_vector
 from twbr_sim.noise import new_generator
-from twbr_tracker.detection import DETECTION_SPECS, N_DISC, detect
+from twbr_tracker.detection import DC_RADIUS, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
@@ -168,3 +168,31 @@ def test_posts_seen_from_a_driving_robot_are_published_still():
         published += tracker.step(t, ranges, -math.pi, math.radians(1.0), 0.1 / 360, x, 0.0, 0.0, 0.5, 0.0, 0.0)
     assert len(published) > 80  # both posts, tracked from their third scan
     assert all(o.vx == 0.0 and o.vy == 0.0 for o in published)
+
+
+def test_a_full_table_makes_room_for_a_new_person_from_its_oldest_lost_track():
+    """max_tracks 2: a person seen for a second then gone is kept lost; a third person's disc takes that
+    lost track's row (not the live one's), and with no lost track left a fourth waits."""
+    ks = settings_vector({**defaults(TRACK_SPECS), "tracking.max_tracks": 2})
+    tracks, cov = new_tracks(ks)
+    n, next_id = 0, 1
+
+    def discs(*centres):
+        rows = np.zeros((len(centres), N_DISC))
+        for k, (x, y) in enumerate(centres):
+            rows[k, DC_X], rows[k, DC_Y], rows[k, DC_RADIUS] = x, y, 0.3
+        return rows
+
+    for k in range(10):  # two people standing, both confirmed
+        d = discs((2.0, 0.0), (0.0, 3.0))
+        n, next_id = track_step(ks, tracks, cov, n, next_id, 0.1 * k, d, len(d))
+    for k in range(10, 20):  # the second is gone: dropped after max_misses, kept lost
+        d = discs((2.0, 0.0))
+        n, next_id = track_step(ks, tracks, cov, n, next_id, 0.1 * k, d, len(d))
+    assert n == 2 and sorted(tracks[:n, TR_LOST]) == [0.0, 1.0]
+    d = discs((2.0, 0.0), (-3.0, -3.0))  # a third person, far from the lost one's gate
+    n, next_id = track_step(ks, tracks, cov, n, next_id, 2.0, d, len(d))
+    assert n == 2 and sorted(tracks[:n, TR_ID]) == [1.0, 3.0] and not tracks[:n, TR_LOST].any()
+    d = discs((2.0, 0.0), (-3.0, -3.0), (4.0, 4.0))  # a fourth: no lost track to give way
+    n, next_id = track_step(ks, tracks, cov, n, next_id, 2.1, d, len(d))
+    assert n == 2 and sorted(tracks[:n, TR_ID]) == [1.0, 3.0]

@@ -50,7 +50,8 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.moving_speed", 0.15, "a track faster than this is moving (published with its velocity);"
               " below half of it static again (published still)", "m/s", 0.0,
               10.0),
-    ParamSpec("tracking.max_tracks", 64, "tracks kept at once (the oldest tentative ones give way)", "", 1, 10000),
+    ParamSpec("tracking.max_tracks", 64, "tracks kept at once, lost ones included (a birth into a full table"
+              " takes the oldest lost track's place, else waits)", "", 1, 10000),
     ParamSpec("tracking.max_coast", 2.0, "an occluded confirmed track coasts on its prediction this long after"
               " its last match", "s", 0.0, 60.0),
     ParamSpec("tracking.max_gate", 1.5, "the widest a coasting track's gate grows (3 position std)", "m", 0.0, 10.0,
