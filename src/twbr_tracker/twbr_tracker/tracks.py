@@ -259,18 +259,22 @@ def _revive(s, track, cov, t, zx, zy):
 
 
 @kernel
+def _remove(tracks, cov, j, n):
+    """Drop row j of tracks[:n] (the last row takes its place); returns the new n."""
+    n -= 1
+    tracks[j, :] = tracks[n, :]
+    cov[j, :, :] = cov[n, :, :]
+    return n
+
+
+@kernel
 def _evict_lost(tracks, cov, n):
     """Drop the lost track last matched longest ago, if there is one; returns the new n."""
     oldest = -1
     for j in range(n):
         if tracks[j, TR_LOST] != 0.0 and (oldest < 0 or tracks[j, TR_SEEN] < tracks[oldest, TR_SEEN]):
             oldest = j
-    if oldest < 0:
-        return n
-    n -= 1
-    tracks[oldest, :] = tracks[n, :]
-    cov[oldest, :, :] = cov[n, :, :]
-    return n
+    return n if oldest < 0 else _remove(tracks, cov, oldest, n)
 
 
 @kernel
@@ -329,9 +333,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
                 tracks[j, TR_LOST] = 1.0  # kept, unpublished, for re-identification
                 gone = False
         if gone:
-            n -= 1
-            tracks[j, :] = tracks[n, :]
-            cov[j, :, :] = cov[n, :, :]
+            n = _remove(tracks, cov, j, n)
         else:
             j += 1
     for k in range(m):  # births
