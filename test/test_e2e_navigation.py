@@ -109,7 +109,7 @@ def test_static_outcome_does_not_depend_on_the_seed():
     assert len(set(paths)) == 1
 
 
-def test_planner_node_stops_the_robot_when_the_world_goes_stale(launch, ros):
+def test_planner_node_stops_the_robot_when_the_world_goes_stale_or_the_target_is_unknown(launch, ros):
     import time
 
     from geometry_msgs.msg import Point, Twist
@@ -128,7 +128,7 @@ def test_planner_node_stops_the_robot_when_the_world_goes_stale(launch, ros):
     node.create_subscription(PlannerState, "planner_state", states.append, reliable)
     node.create_subscription(Twist, "cmd_vel", cmds.append, reliable)
     planner = launch("twbr_planner", "planner_node", "-p", "use_sim_time:=false", params=("planner.yaml",))
-    world_live = {"on": True}
+    world_live = {"on": True, "known": True}
 
     def tick() -> None:
         stamp = node.get_clock().now().to_msg()
@@ -140,6 +140,8 @@ def test_planner_node_stops_the_robot_when_the_world_goes_stale(launch, ros):
             target = Odometry()
             target.header.stamp = stamp
             target.pose.pose.position.x, target.pose.pose.orientation.w = 8.0, 1.0
+            if not world_live["known"]:  # a tracker that has not seen its target: position unknown
+                target.pose.covariance[0] = -1.0
             pub_target.publish(target)
             obstacles = ObstacleArray()
             obstacles.header.stamp = stamp
@@ -171,6 +173,13 @@ def test_planner_node_stops_the_robot_when_the_world_goes_stale(launch, ros):
     assert run_until(lambda: cmds[-1].linear.x == 0.0, 5.0)
     assert cmds[-1].linear.x == 0.0 and cmds[-1].angular.z == 0.0
     assert "older than world_timeout" in planner.output
+    # A target of unknown position (a tracker that has not seen it): the robot stands, then goes once it is known.
+    world_live.update(on=True, known=False)
+    assert run_until(lambda: states[-1].mode == "no_target", 10.0), planner.output
+    run_until(lambda: False, 0.3)
+    assert states[-1].mode == "no_target" and all(c.linear.x == 0.0 and c.angular.z == 0.0 for c in cmds[-5:])
+    world_live["known"] = True
+    assert run_until(lambda: states[-1].mode == "tracking" and cmds[-1].linear.x > 0.0, 10.0), planner.output
 
 
 BAD_PLANNER_STARTS = [

@@ -94,6 +94,9 @@ def test_odom_pose_read_from_the_bytes_is_the_deserialized_one(frame, child):
     pose = odom_pose(data)
     assert pose == odom_pose_of(msg)
     assert (pose.frame_id, pose.child_frame_id, pose.x, pose.velocity) == (frame, child, 1.5 * -1.3, 0.3 * -1.3)
+    assert pose.x_variance == 7.0 and pose.known
+    msg.pose.covariance[0] = cdr.UNKNOWN_POSITION  # a tracker that has not seen its target yet
+    assert not odom_pose(serialize_message(msg)).known and not odom_pose_of(msg).known
 
 
 def test_a_frame_name_beyond_ascii_is_read_in_place_and_one_not_utf8_is_left_to_the_deserializer():

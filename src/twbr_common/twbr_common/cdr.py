@@ -149,9 +149,14 @@ def odom_twist_of(msg: Odometry) -> OdomTwist:
                      (o.x, o.y, o.z, o.w))
 
 
+# A pose covariance whose first element is this says "no position known" (the convention of
+# sensor_msgs/Imu's orientation_covariance[0] = -1): a tracker that has not seen its target yet.
+UNKNOWN_POSITION = -1.0
+
+
 class OdomPose(NamedTuple):
     """What the planner takes from odom: the stamp, both frames, the position x, y [m], the orientation
-    (x, y, z, w) and the forward speed [m/s]."""
+    (x, y, z, w), the forward speed [m/s] and the position's x variance [m²] (UNKNOWN_POSITION: none)."""
 
     stamp: Time
     frame_id: str
@@ -160,6 +165,11 @@ class OdomPose(NamedTuple):
     y: float
     orientation: tuple[float, float, float, float]
     velocity: float
+    x_variance: float = 0.0
+
+    @property
+    def known(self) -> bool:
+        return self.x_variance != UNKNOWN_POSITION
 
 
 def odom_pose(data: bytes) -> OdomPose | None:
@@ -177,15 +187,16 @@ def _plain_odom_pose(data: bytes) -> OdomPose | None:
     pose = None if child is None else _odom_pose_offset(data, child[1])
     if pose is None:
         return None
-    x, y, _z, qx, qy, qz, qw = _unpack(order, "7d", data, pose)
+    x, y, _z, qx, qy, qz, qw, x_variance = _unpack(order, "8d", data, pose)
     (velocity,) = _unpack(order, "d", data, pose + _ODOM_TWIST_OFFSET)
-    return OdomPose(Time(sec=sec, nanosec=nanosec), frame[0], child[0], x, y, (qx, qy, qz, qw), velocity)
+    return OdomPose(Time(sec=sec, nanosec=nanosec), frame[0], child[0], x, y, (qx, qy, qz, qw), velocity,
+                    x_variance)
 
 
 def odom_pose_of(msg: Odometry) -> OdomPose:
     p, o = msg.pose.pose.position, msg.pose.pose.orientation
     return OdomPose(msg.header.stamp, msg.header.frame_id, msg.child_frame_id, p.x, p.y, (o.x, o.y, o.z, o.w),
-                    msg.twist.twist.linear.x)
+                    msg.twist.twist.linear.x, msg.pose.covariance[0])
 
 
 class ObstacleRows(NamedTuple):

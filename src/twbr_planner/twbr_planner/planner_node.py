@@ -12,7 +12,8 @@ a target stamped after t - world_period and obstacles after t - obstacles_period
 planning instant reaches the plan even when a loaded machine delivers it after the odom, so a lockstep run
 is the same on an idle and on a busy machine.
 Obstacles are moved along their velocity to the odom stamp; a target or obstacle list older than
-world_timeout stops the robot.
+world_timeout stops the robot, and so does a target whose pose covariance[0] is -1 (a tracker's target
+not seen yet: position unknown).
 """
 
 from __future__ import annotations
@@ -101,7 +102,7 @@ class PlannerNode(Node):
         self.core.reset()
         self._due.restart()
         self._marker_due.restart()
-        self._target: tuple[float, Target] | None = None
+        self._target: tuple[float, Target | None] | None = None  # None in it: position unknown
         self._obstacles: tuple[float, np.ndarray] | None = None  # its stamp; rows of id, x, y, vx, vy, radius
         self._last_plan: tuple[float, PlannerOutput] | None = None
         # (odom, its stamp, yaw, wall deadline): a plan due, waiting for its world.
@@ -116,7 +117,8 @@ class PlannerNode(Node):
         _, _, heading = rpy_from_quaternion(*target.orientation)
         stamp, speed = stamp_seconds(target.stamp), target.velocity
         if self._admit("target", stamp, (target.x, target.y, heading, speed)):
-            self._target = (stamp, Target(target.x, target.y, speed * math.cos(heading), speed * math.sin(heading)))
+            self._target = (stamp, Target(target.x, target.y, speed * math.cos(heading), speed * math.sin(heading))
+                            if target.known else None)  # a tracker that has not seen it yet: the robot stands
             self._plan_pending()
 
     def _on_obstacles_bytes(self, data: bytes) -> None:
@@ -205,6 +207,9 @@ class PlannerNode(Node):
         timeout = self.cfg["world_timeout"]
         if self._target is None or self._obstacles is None:
             out = self.core.stopped(stamp, Mode.NO_TARGET)
+        elif self._target[1] is None:  # where the target is, is not known (yet): stand, and start afresh
+            out = self.core.stopped(stamp, Mode.NO_TARGET)
+            self.core.reset()
         elif stamp - self._target[0] > timeout or stamp - self._obstacles[0] > timeout:
             out = self.core.stopped(stamp, Mode.STALE)
             self.core.reset()

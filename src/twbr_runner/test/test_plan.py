@@ -8,7 +8,7 @@ from twbr_common.params import ConfigError
 from twbr_common.paths import config_dir
 from twbr_planner.planner_params import resolve
 from twbr_runner.runner import plan, run_perception
-from twbr_sim.scenario import load_scenario, parse_scenario
+from twbr_sim.scenario import load_scenario, parse_scenario, vary
 from twbr_sim.scenario_files import find_scenario
 
 
@@ -76,6 +76,15 @@ def test_with_the_lidar_the_planner_avoids_what_the_tracker_sees_and_the_truth_i
     assert "obstacles:=obstacles_truth" in nodes["sim"].ros_args  # the world's own list, for the metrics only
     assert "obstacles_period:=0.1" in nodes["planner"].ros_args  # a plan at a scan's instant waits for it
     assert "wait_for_subscribers:=4" in nodes["sim"].ros_args  # recorder, controller, planner and tracker
+    # the planner follows the tracker's target (10 Hz looks), told where the seed's layout starts it
+    assert "target:=target_tracked" in nodes["planner"].ros_args and "world_period:=0.1" in nodes["planner"].ros_args
+    assert "target:=target_tracked" in nodes["tracker"].ros_args
+    start = vary(crowd, 1).target
+    assert f"target.prior_x:={float(start.x)!r}" in nodes["tracker"].ros_args and "target.prior_std:=0.1" in nodes[
+        "tracker"].ros_args
+    mujoco = {n.label: n for n in plan(crowd, Path("scenario.yaml"), config_dir(), 1, Path("bag"), perception="lidar",
+                                       driver="mujoco")}
+    assert not any("target:=" in a for a in mujoco["planner"].ros_args)  # no target detector: the world's target
     truth = {n.label: n for n in plan(crowd, Path("scenario.yaml"), config_dir(), 1, Path("bag"), perception="truth")}
     assert "tracker" not in truth and not any("obstacles" in a for a in truth["sim"].ros_args)
     assert "wait_for_subscribers:=3" in truth["sim"].ros_args

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from twbr_batch.response import PITCH_BAND, StepResponse, settle_time, step_response
-from twbr_common.cdr import obstacle_rows, obstacle_rows_of
+from twbr_common.cdr import UNKNOWN_POSITION, obstacle_rows, obstacle_rows_of
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT, InputGuard, Verdict
 from twbr_runner.bag_reader import iter_messages
@@ -32,7 +32,8 @@ CONTROLLER_FIELDS = (
 
 # What metrics and figures read (decoding only these keeps the analysis of a long run to seconds).
 MEASURED_TOPICS = ("/clock", "/controller_state", "/odom", "/ground_truth", "/joint_states", "/sim_status",
-                   "/world_status", "/target", "/target_tracked", "/obstacles", "/obstacles_truth", "/planner_state")
+                   "/world_status", "/target", "/target_tracked", "/target_detections", "/obstacles", "/obstacles_truth",
+                   "/planner_state")
 OBSTACLE_TOPICS = ("/obstacles", "/obstacles_truth")  # read from their bytes; the truth's with the LiDAR
 
 
@@ -61,8 +62,10 @@ class RunSeries:
     target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
     # With the LiDAR: the tracker's fused target (from target_detections), for its error against `target`
+    # (the instants its position was known: a prior, or after a sighting), and the first look that saw it [s]
     tracked_target_t: np.ndarray = field(default_factory=lambda: np.empty(0))
     tracked_target_xy: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))
+    target_first_seen: float = math.nan
     # (stamp, rows of id, x, y, vx, vy, radius): snapshots of the world's obstacle list
     # (OBSTACLE_SNAPSHOT_PERIOD): `obstacles_truth` where the run had one (the LiDAR's), else `obstacles`
     obstacles: list[tuple[float, np.ndarray]] = field(default_factory=list)
@@ -81,6 +84,7 @@ _VALUES: dict[str, Any] = {
                         m.twist.twist.linear.x, m.twist.twist.angular.z),
     "/target": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
     "/target_tracked": lambda m: (m.pose.pose.position.x, m.pose.pose.position.y, m.twist.twist.linear.x),
+    "/target_detections": lambda m: tuple(v for q in m.poses for v in (q.position.x, q.position.y)),
     "/planner_state": lambda m: (m.velocity_cmd, m.yaw_rate_cmd, m.distance_to_target),
     # (a field a bag recorded before it existed reads as 0)
     "/controller_state": lambda m: tuple(float(getattr(m, name, 0.0)) for name in CONTROLLER_FIELDS),
@@ -200,7 +204,9 @@ class SeriesBuilder:
         elif topic == "/joint_states":
             row = (t, *(list(msg.effort)[:2]))
         elif topic in ("/target", "/target_tracked"):
-            row = (t, msg.pose.pose.position.x, msg.pose.pose.position.y)
+            row = (t, msg.pose.pose.position.x, msg.pose.pose.position.y, msg.pose.covariance[0])
+        elif topic == "/target_detections":
+            row = (t, len(msg.poses))
         else:  # statuses and planner_state: a few fields each, 20 Hz
             row = msg
         _put(self._rows.setdefault(topic, []), verdict, row)
@@ -243,10 +249,12 @@ class SeriesBuilder:
         s.wheel_effort = np.array([r[1:3] for r in joints], dtype=float).reshape(-1, 2)
         s.sim_status = self._rows.get("/sim_status", [])
         s.world_status = self._rows.get("/world_status", [])
-        target = np.array(self._rows.get("/target", []), dtype=float).reshape(-1, 3)
+        target = np.array(self._rows.get("/target", []), dtype=float).reshape(-1, 4)
         s.target_t, s.target_xy = target[:, 0], target[:, 1:3]
-        tracked = np.array(self._rows.get("/target_tracked", []), dtype=float).reshape(-1, 3)
+        tracked = np.array(self._rows.get("/target_tracked", []), dtype=float).reshape(-1, 4)
+        tracked = tracked[tracked[:, 3] != UNKNOWN_POSITION]
         s.tracked_target_t, s.tracked_target_xy = tracked[:, 0], tracked[:, 1:3]
+        s.target_first_seen = min((t for t, seen in self._rows.get("/target_detections", []) if seen), default=math.nan)
         shown = "/obstacles_truth" if self.counts.get("/obstacles_truth") else "/obstacles"
         s.obstacles = [*self._snapshots[shown][0], *self._snapshots[shown][1]]
         if shown == "/obstacles_truth":
@@ -435,11 +443,13 @@ def tracking_metrics(s: RunSeries, range_max: float, period: float) -> dict[str,
     instants = ((t, s.tracked[t], s.truth_obstacles[t],
                  (float(np.interp(t, s.odom_t, s.x_c)), float(np.interp(t, s.odom_t, s.y_c)))) for t in stamps)
     out = evaluate(instants, range_max, period=period).as_dict()
+    # The fused target's error from its first sighting on (before it, a prior says only where it started)
     truth = dict(zip(s.target_t.tolist(), s.target_xy.tolist(), strict=True))
     errors = [math.dist(xy, truth[t]) for t, xy in zip(s.tracked_target_t.tolist(), s.tracked_target_xy.tolist(),
-                                                       strict=True) if t in truth]
+                                                       strict=True) if t in truth and t >= s.target_first_seen]
     out.update(target_estimates=len(errors), target_position_rmse_m=_finite(_rms(np.array(errors))),
-               target_error_p95_m=float(np.percentile(errors, 95)) if errors else None)
+               target_error_p95_m=float(np.percentile(errors, 95)) if errors else None,
+               target_first_seen_s=_finite(s.target_first_seen))
     return out
 
 

@@ -46,15 +46,19 @@ from twbr_runner.metrics import BagSummary, RunMetrics, compute_metrics, series_
 from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 from twbr_sim.lidar import LIDAR_SPECS
 from twbr_sim.run_report import parse_run_report
-from twbr_sim.scenario import PERCEPTIONS, Scenario, load_scenario
+from twbr_sim.scenario import PERCEPTIONS, Scenario, load_scenario, run_perception, vary
 from twbr_sim.scenario_files import find_scenario
+from twbr_sim.target_sensor import TARGET_SENSOR_SPECS
+from twbr_tracker.target import MISSION_PRIOR_STD
 
 # With the LiDAR (--perception lidar) the simulator's own obstacles, the truth, are remapped here, and
 # tracker_node publishes `obstacles` from the scans, as on a real robot: the planner and the controller's
 # collision monitor read what the tracker sees; the metrics and figures judge against the truth.
 TRUTH_OBSTACLES = "obstacles_truth"
-# The tracker's fused target (from target_detections) goes here, beside the world's `target` the planner
-# still follows: without a search behaviour a robot that has not yet seen its target would stand still.
+# The tracker's fused target (from target_detections) goes here, beside the world's `target`, and the
+# planner follows it where the robot has a target detector (sim_node's target_sensor; mujoco_driver has
+# none, and its planner follows the world's). The tracker is told where the target starts (the seed's
+# layout), as a mission hands a robot a goal: before its first sighting the robot heads there.
 TRACKED_TARGET = "target_tracked"
 # Every topic of the contract, with its type: the recorder subscribes to these before any node starts.
 RECORDED_TOPICS = {
@@ -166,12 +170,12 @@ def lidar_settings(driver: str, config: Path) -> dict[str, float]:
             if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)}
 
 
-def run_perception(scenario: Scenario, perception: str | None) -> str:
-    """What the planner's obstacles come from in this run: the caller's choice, else the scenario's; a run
-    without a planner has none to perceive ("truth": nothing is tracked)."""
-    if scenario.target is None:
-        return "truth"
-    return perception or scenario.perception
+def target_detector_rate(driver: str, config: Path) -> float:
+    """The robot's target detector's rate [Hz] as its parameter file sets it (0: it has none)."""
+    if driver != "sim":
+        return 0.0
+    given = node_parameters(config / "sim.yaml", "sim_node")
+    return float(given.get("target_sensor.rate", default_of(TARGET_SENSOR_SPECS, "target_sensor.rate")))
 
 
 def robot_node(driver: str, config: Path, sensors: str, video: Path | None = None) -> tuple[str, str, list[str]]:
@@ -221,9 +225,15 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         overrides = [a for name, value in pinned.items() for a in ("-p", f"{name}:={ros_value(value)}")]
         if lidar:  # its obstacles come once a scan: a plan at a scan's instant waits for that scan's
             overrides += ["-p", f"obstacles_period:={1.0 / rate!r}"]
-            nodes.append(NodeSpec("tracker", "twbr_tracker", "tracker_node",
-                                  [*params_files(config, "tracker.yaml"), "-r", f"target:={TRACKED_TARGET}"],
-                                  recorded=("/obstacles",), env=compiled_cores()))
+            tracker_args = [*params_files(config, "tracker.yaml"), "-r", f"target:={TRACKED_TARGET}"]
+            detector_rate = target_detector_rate(driver, config)
+            if detector_rate > 0.0:  # the planner follows what the tracker makes of the detector's looks
+                start = vary(scenario, seed).target
+                tracker_args += ["-p", f"target.prior_x:={float(start.x)!r}", "-p", f"target.prior_y:={float(start.y)!r}",
+                                 "-p", f"target.prior_std:={MISSION_PRIOR_STD!r}"]
+                overrides += ["-r", f"target:={TRACKED_TARGET}", "-p", f"world_period:={1.0 / detector_rate!r}"]
+            nodes.append(NodeSpec("tracker", "twbr_tracker", "tracker_node", tracker_args,
+                                  recorded=("/obstacles", f"/{TRACKED_TARGET}"), env=compiled_cores()))
         nodes.append(NodeSpec("planner", "twbr_planner", "planner_node",
                               [*params_files(config, "planner.yaml"), *overrides],
                               recorded=("/cmd_vel", "/planner_state"), env=compiled_cores()))

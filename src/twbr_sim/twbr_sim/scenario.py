@@ -405,6 +405,14 @@ def _varied(o: ObstacleSpec, dx: float, dy: float, shift: float, scale: float) -
                    motion=motion)
 
 
+def run_perception(scenario: Scenario, perception: str | None) -> str:
+    """What the planner's obstacles come from in a run: the caller's choice, else the scenario's; a run
+    without a planner has none to perceive ("truth": nothing is tracked)."""
+    if scenario.target is None:
+        return "truth"
+    return perception or scenario.perception
+
+
 def vary(scenario: Scenario, seed: int) -> Scenario:
     """The layout of `seed`: the scenario with its variation drawn (itself when it has none).
 

@@ -45,3 +45,16 @@ def test_a_hidden_target_is_predicted_with_growing_uncertainty_then_held():
 def test_nothing_before_the_first_look():
     f = TargetFilter(defaults(TARGET_SPECS))
     assert f.estimate(1.0) is None
+
+
+def test_before_the_first_look_the_prior_stands_still_growing_uncertain_and_the_first_look_replaces_it():
+    cfg = {**defaults(TARGET_SPECS), "target.prior_x": 4.0, "target.prior_y": -1.0, "target.prior_std": 0.1}
+    f = TargetFilter(cfg)
+    first, later = f.estimate(0.0), f.estimate(3.0)
+    assert (first.x, first.y, first.vx, first.vy) == (4.0, -1.0, 0.0, 0.0) and first.position_variance == pytest.approx(0.01)
+    assert (later.x, later.y) == (4.0, -1.0) and later.position_variance > 1.0 and later.since_seen == math.inf
+    f.measure(3.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # seen 2 m ahead of the origin, 2.2 m from the prior
+    seen = f.estimate(3.0)
+    assert (seen.x, seen.y) == (2.0, 0.0) and seen.position_variance == pytest.approx(0.05 ** 2)
+    f.reset()  # a restart forgets the sighting, not the mission's prior
+    assert (f.estimate(5.0).x, f.estimate(5.0).position_variance) == (4.0, pytest.approx(0.01))

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
@@ -22,6 +24,7 @@ from twbr_tracker.tracks import (
     TR_X,
     TR_Y,
     TRACK_SPECS,
+    TS_MAX_TRACKS,
     mark_occluded,
     new_tracks,
     track_step,
@@ -34,6 +37,13 @@ GEOMETRY_SPECS: tuple[ParamSpec, ...] = (
 )
 TRACKER_SPECS: tuple[ParamSpec, ...] = (*GEOMETRY_SPECS, *DETECTION_SPECS, *TRACK_SPECS)
 WALL_IDS = 1_000_000  # a wall disc's id: this plus its place in the chain (tracks count up from 1)
+# The tracker's output, one row per obstacle, as the planner reads an ObstacleArray (twbr_common.cdr's rows):
+OBSTACLE_ROW = Layout(("id", "x", "y", "vx", "vy", "radius"))  # [m, m/s] in odom
+N_OBSTACLE_ROW = len(OBSTACLE_ROW)
+# What a tracker carries between scans besides its tracks: their count and the next track's id.
+K_COUNT = 0
+K_NEXT_ID = 1
+N_COUNTERS = 2
 
 
 @dataclass(frozen=True)
@@ -46,20 +56,69 @@ class TrackedObstacle:
     radius: float  # [m]
 
 
+@kernel
+def tracker_scan(d, k, tracks, cov, counters, t, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
+                 yaw_rate, pitch, axle_height, lidar_height, discs, out):
+    """The scan stamped t [s] (its first beam), begun at the pose (x, y, yaw) [m, rad] moving at speed [m/s]
+    and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now into out's rows (OBSTACLE_ROW: the
+    confirmed live tracks, static ones still, then the wall's chain of discs); returns their count.
+    `discs` is scratch of at least one row per beam."""
+    m = detect(d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
+               axle_height, lidar_height, discs)
+    n = int(counters[K_COUNT])
+    mark_occluded(k, tracks, n, t, ranges, angle_min, angle_increment, x, y, yaw)
+    n, next_id = track_step(k, tracks, cov, n, int(counters[K_NEXT_ID]), t, discs, m)
+    counters[K_COUNT] = n
+    counters[K_NEXT_ID] = next_id
+    rows = 0
+    for i in range(n):
+        if tracks[i, TR_CONFIRMED] != 0.0 and tracks[i, TR_LOST] == 0.0 and rows < out.shape[0]:
+            out[rows, 0] = tracks[i, TR_ID]
+            out[rows, 1] = tracks[i, TR_X]
+            out[rows, 2] = tracks[i, TR_Y]
+            out[rows, 3] = tracks[i, TR_VX] * tracks[i, TR_MOVING]
+            out[rows, 4] = tracks[i, TR_VY] * tracks[i, TR_MOVING]
+            out[rows, 5] = tracks[i, TR_RADIUS]
+            rows += 1
+    walls = 0
+    for i in range(m):
+        if discs[i, DC_WALL] != 0.0 and rows < out.shape[0]:
+            out[rows, 0] = WALL_IDS + walls
+            out[rows, 1] = discs[i, DC_X]
+            out[rows, 2] = discs[i, DC_Y]
+            out[rows, 3] = 0.0
+            out[rows, 4] = 0.0
+            out[rows, 5] = discs[i, DC_RADIUS]
+            rows += 1
+            walls += 1
+    return rows
+
+
+@kernel
+def output_rows(k, beams):
+    """Rows enough for any scan's output: every track, and a wall disc per beam."""
+    return int(k[TS_MAX_TRACKS]) + beams
+
+
 class Tracker:
     def __init__(self, cfg: dict) -> None:
         self.cfg = dict(cfg)
         self._d = detection_vector(cfg)
         self._k = track_vector(cfg)
         self.tracks, self.cov = new_tracks(self._k)
-        self.n = 0
-        self.next_id = 1
+        self.counters = np.zeros(N_COUNTERS)
+        self.reset()
+
+    @property
+    def n(self) -> int:
+        return int(self.counters[K_COUNT])
 
     def reset(self) -> None:
-        """Forget every track (the robot's odometry restarted: its old frame is gone)."""
+        """Forget every track (the robot's odometry restarted: its old frame is gone); ids count on."""
         self.tracks[:] = 0.0
         self.cov[:] = 0.0
-        self.n = 0
+        self.counters[K_COUNT] = 0
+        self.counters[K_NEXT_ID] = max(self.counters[K_NEXT_ID], 1)
 
     def step(self, t: float, ranges: np.ndarray, angle_min: float, angle_increment: float, time_increment: float,
              x: float, y: float, yaw: float, speed: float, yaw_rate: float, pitch: float) -> list[TrackedObstacle]:
@@ -67,17 +126,12 @@ class Tracker:
         [m/s] and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now."""
         ranges = np.ascontiguousarray(ranges, dtype=np.float64)
         discs = np.empty((len(ranges), N_DISC))
-        m = detect(self._d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-                   self.cfg["axle_height"], self.cfg["lidar_height"], discs)
-        mark_occluded(self._k, self.tracks, self.n, t, ranges, angle_min, angle_increment, x, y, yaw)
-        self.n, self.next_id = track_step(self._k, self.tracks, self.cov, self.n, self.next_id, t, discs, m)
-        out = [TrackedObstacle(int(r[TR_ID]), float(r[TR_X]), float(r[TR_Y]), float(r[TR_VX]) * r[TR_MOVING],
-                               float(r[TR_VY]) * r[TR_MOVING], float(r[TR_RADIUS]))
-               for r in self.tracks[:self.n] if r[TR_CONFIRMED] != 0.0 and r[TR_LOST] == 0.0]
-        walls = [d for d in discs[:m] if d[DC_WALL] != 0.0]
-        out += [TrackedObstacle(WALL_IDS + k, float(d[DC_X]), float(d[DC_Y]), 0.0, 0.0, float(d[DC_RADIUS]))
-                for k, d in enumerate(walls)]
-        return out
+        out = np.empty((output_rows(self._k, len(ranges)), N_OBSTACLE_ROW))
+        rows = tracker_scan(self._d, self._k, self.tracks, self.cov, self.counters, t, ranges, angle_min,
+                            angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch, self.cfg["axle_height"],
+                            self.cfg["lidar_height"], discs, out)
+        return [TrackedObstacle(int(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
+                for r in out[:rows]]
 
     def warm_up(self) -> None:
         """Load the compiled kernels now, on a copy, so the first scan is answered on time."""

@@ -6,7 +6,8 @@ and pitch); publishes `obstacles` (twbr_msgs/ObstacleArray in odom, stamped with
 confirmed tracks with their velocities and a wall's chain of discs; the same as cylinders and arrows on
 `tracker_markers` for RViz) and `target` (nav_msgs/Odometry in
 odom, stamped with each look: the fused target, its prediction while it is hidden, with the position's
-variance in the pose covariance; none before the first sighting).
+variance in the pose covariance; before the first sighting the prior (target.prior_*) or, without one, a
+target whose covariance[0] is -1, position unknown, on which the planner stands).
 
 Each scan and each look is placed with the first odom stamped at or after its stamp (a simulator sends an
 instant's scan and look before its odom; a robot's odom comes at 100-200 Hz), waiting for it if need be,
@@ -29,6 +30,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
+from twbr_common.cdr import UNKNOWN_POSITION
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec
@@ -38,7 +40,7 @@ from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
 from twbr_sim.world import TargetState
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers
-from twbr_tracker.target import TARGET_SPECS, TargetFilter
+from twbr_tracker.target import TARGET_SPECS, TargetEstimate, TargetFilter
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
 NODE_SPECS: tuple[ParamSpec, ...] = (
@@ -148,8 +150,7 @@ class TrackerNode(Node):
             if math.isfinite(p.x) and math.isfinite(p.y):
                 self.target.measure(t, math.hypot(p.x, p.y), math.atan2(p.y, p.x), x, y, yaw, pitch)
         estimate = self.target.estimate(t)
-        if estimate is not None:
-            self.pub_target.publish(target_odometry(estimate, msg.header.stamp, self.cfg["odom_frame"]))
+        self.pub_target.publish(target_odometry(estimate, msg.header.stamp, self.cfg["odom_frame"]))
 
     def destroy_node(self) -> None:
         self.get_logger().info(self.report())
@@ -162,9 +163,15 @@ class TrackerNode(Node):
                 f" {self.latencies.quantile_ms(0.5):.3f} ms, p99 {self.latencies.quantile_ms(0.99):.3f} ms")
 
 
-def target_odometry(estimate, stamp, frame: str) -> Odometry:
+def target_odometry(estimate: TargetEstimate | None, stamp, frame: str) -> Odometry:
     """The fused target as the planner reads a target (heading along its velocity, forward speed), with the
-    position's variance on the pose covariance's x and y."""
+    position's variance on the pose covariance's x and y; None: a target of unknown position."""
+    if estimate is None:
+        msg = target_message(TargetState(x=0.0, y=0.0, heading=0.0, speed=0.0, yaw_rate=0.0), stamp, frame)
+        covariance = [0.0] * 36
+        covariance[0] = UNKNOWN_POSITION
+        msg.pose.covariance = covariance
+        return msg
     vx, vy = estimate.vx, estimate.vy
     state = TargetState(x=estimate.x, y=estimate.y, heading=math.atan2(vy, vx), speed=math.hypot(vx, vy),
                         yaw_rate=0.0)

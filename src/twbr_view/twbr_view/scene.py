@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from matplotlib import colormaps
 
+from twbr_common.cdr import UNKNOWN_POSITION
 from twbr_planner.apf import Obstacles, potential  # at start-up: it loads numba, seconds of CPU
 
 ROBOT_RGB = (230, 40, 40)
@@ -301,7 +302,7 @@ def feed(view: RunView, topic: str, msg: Any) -> None:
                                             o.radius) for o in msg.obstacles], f"map/{name}")
     elif name == "scan":
         view.scan(stamp_of(msg), np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment)
-    elif name == "target_tracked":
+    elif name == "target_tracked" and msg.pose.covariance[0] != UNKNOWN_POSITION:  # not seen yet: nothing to draw
         p = msg.pose.pose.position
         view.tracked_target(stamp_of(msg), p.x, p.y)
     elif name == "planner_state":
