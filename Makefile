@@ -36,15 +36,15 @@ demo:
 	@$(RUN) python -m twbr_runner.runner $(SCENARIO) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(DRIVER),--driver $(DRIVER)) $(if $(PERCEPTION),--perception $(PERCEPTION)) $(if $(VIEW),--view)
 
 montecarlo:
-	@$(CHECK) --scenario '$(SCENARIO)' --runs '$(N)' --perturb '$(PERTURB)'
+	@$(CHECK) --scenario '$(SCENARIO)' --runs '$(N)' --perturb '$(PERTURB)' --perception '$(PERCEPTION)'
 	@bash tools/bootstrap.sh
-	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(CONTROLLER),--controller $(CONTROLLER))
+	@$(RUN) python -m twbr_batch.montecarlo $(SCENARIO) -n $(N) --perturb $(PERTURB) $(if $(SENSORS),--sensors $(SENSORS)) $(if $(CONTROLLER),--controller $(CONTROLLER)) $(if $(PERCEPTION),--perception $(PERCEPTION))
 
 SUITE_N ?= 1000
 suite:
 	@$(CHECK) --runs '$(SUITE_N)' $(if $(SCENARIOS),--scenarios '$(SCENARIOS)')
 	@bash tools/bootstrap.sh
-	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(if $(SCENARIOS),--scenarios $(SCENARIOS)) $(if $(METHODS),--methods $(METHODS)) $(SUITE_ARGS)
+	@$(RUN) python -m twbr_batch.suite -n $(SUITE_N) $(if $(SCENARIOS),--scenarios $(SCENARIOS)) $(if $(METHODS),--methods $(METHODS)) $(if $(PERCEPTION),--perception $(PERCEPTION)) $(SUITE_ARGS)
 
 BENCH_OUT ?= benchmarks/results
 bench: setup

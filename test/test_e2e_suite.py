@@ -3,7 +3,9 @@ batch engine's run of the same seed (the same cores: the same path).
 
 The runner starts recorder, controller_node, planner_node (method robust) and sim_node as processes in
 lockstep; the seed's varied layout is built by the simulator's world exactly as the batch engine builds
-it. One representative scenario runs in `make test`; `make test-long` runs every suite scenario.
+it. On the truth, and on the LiDAR (tracker_node between the scan and the planner; the batch engine runs
+the same scan, tracker and target filter kernels). One representative scenario runs in `make test` on
+each; `make test-long` runs every suite scenario on both.
 """
 
 from __future__ import annotations
@@ -29,25 +31,27 @@ pytestmark = pytest.mark.e2e
 
 SEED = 1
 REPRESENTATIVE = "head_on"
-CASES = [pytest.param(name, marks=[] if name == REPRESENTATIVE else [pytest.mark.long]) for name in suite_names()]
+CASES = [pytest.param(name, perception, marks=[] if name == REPRESENTATIVE else [pytest.mark.long])
+         for perception in ("truth", "lidar") for name in suite_names()]
 
 
-@pytest.mark.parametrize("name", CASES)
-def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_path, ros_domain, name):
+@pytest.mark.parametrize(("name", "perception"), CASES)
+def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_path, ros_domain, name, perception):
     scenario_path = find_scenario(f"suite/{name}")
     scenario = load_scenario(scenario_path)
     env = {**os.environ, "ROS_DOMAIN_ID": str(ros_domain), "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
     done = subprocess.run(
         [*RUNNER, str(scenario_path), "--out", str(tmp_path), "--domain",
-         str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--perception", "truth", "--quiet",
+         str(ros_domain), "--seed", str(SEED), "--planner-method", "robust", "--perception", perception, "--quiet",
          "--no-figures"],
         env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stdout + done.stderr
     (run_dir,) = [d for d in tmp_path.iterdir() if d.is_dir()]
     m = json.loads((run_dir / "metrics.json").read_text())
+    assert m["perception"] == perception
 
     batch = run_batch(scenario, [SEED], robot_params()[None, :], planner={"method": "robust"},
-                      duration=min(scenario.duration, TIME_LIMIT), record=True)
+                      duration=min(scenario.duration, TIME_LIMIT), record=True, perception=perception)
     z = batch.table[0]
     path = batch.trace(0)
     assert m["reached"] == (not math.isnan(z[Z_REACHED_AT])), m

@@ -200,3 +200,39 @@ def test_realistic_sensors_and_either_controller_run_the_same_in_the_batch(name,
         assert z[batch.Z_PITCH_ERROR_SQUARES] > 0.0  # the noise reached the controller
         assert (z[batch.Z_LIFT_EVENTS], z[batch.Z_SLIP_EVENTS]) == (trace.traction.lift_events,
                                                                    trace.traction.slip_events)
+
+
+@pytest.mark.parametrize("name", ["suite/head_on", "suite/crowd_crossing", "suite/target_behind_wall"])
+def test_on_the_lidar_the_batch_runs_the_scan_tracker_and_target_filter_of_the_scalar_cores(name):
+    # The scan cast and its noise, the tracker's detection, association and filters and the fused target,
+    # in each robot of the batch, against the classes tracker_node and sim_node call (LaserScan's float32
+    # included): the same path to the last bit, where the truth's and the tracker's plans differ.
+    path = find_scenario(name)
+    planner = {"method": "robust"}
+    seeds = [1, 2]
+    scenario = load_scenario(path)
+    lidar = batch.run_batch(scenario, seeds, np.tile(robot_params(), (2, 1)), planner=planner, record=True,
+                            perception="lidar", duration=40.0)
+    truth = batch.run_batch(scenario, seeds, np.tile(robot_params(), (2, 1)), planner=planner, record=True,
+                            duration=40.0)
+    for i, seed in enumerate(seeds):
+        row, trace = mc.run_one_traced(str(path), seed, 0.0, planner=planner, perception="lidar")
+        got = result_trace = lidar.trace(i)
+        n = min(len(got["t"]), len(trace.t))
+        assert n > 400, f"{name} seed {seed}: only {n} samples"
+        for column, field in COMPARED:
+            np.testing.assert_allclose(got[column][:n], trace[field][:n], **TOL, err_msg=f"{name} seed {seed} {column}")
+        np.testing.assert_allclose(got["x_c"][:n], trace.x_c[:n], **TOL)
+        assert lidar.table[i, batch.Z_COLLISIONS] == row.collisions
+        # what it saw is not the truth: the commands differ from the truth run's
+        other = truth.trace(i)
+        m = min(len(other["t"]), len(result_trace["t"]))
+        assert np.abs(other["velocity_ref"][:m] - result_trace["velocity_ref"][:m]).max() > 1e-3
+
+
+def test_the_lidar_needs_a_scanner():
+    scenario = load_scenario(find_scenario("suite/head_on"))
+    with pytest.raises(ConfigError, match=r"lidar\.rate = 0"):
+        batch.run_batch(scenario, [1], robot_params()[None, :], perception="lidar", sim={"lidar.rate": 0.0})
+    with pytest.raises(ConfigError, match="perception 'sonar'"):
+        batch.run_batch(scenario, [1], robot_params()[None, :], perception="sonar")

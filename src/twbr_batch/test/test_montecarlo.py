@@ -27,8 +27,11 @@ def course(tmp_path):
     return path
 
 
-def test_rows_are_the_same_on_every_engine(course, tmp_path):
-    study = mc.Study(course, runs=3, perturbation=0.2, first_seed=2)
+@pytest.mark.parametrize("perception", [None, "truth"], ids=["lidar", "truth"])
+def test_rows_are_the_same_on_every_engine(course, tmp_path, perception):
+    # A user's scenario runs on the LiDAR unless told: the scan, tracker and target filter in both engines
+    study = mc.Study(course, runs=3, perturbation=0.2, first_seed=2, perception=perception)
+    assert study.perceived == (perception or "lidar")
     one = mc.run_study(study, tmp_path / "one", "scalar", workers=1, progress=False)
     two = mc.run_study(study, tmp_path / "two", "scalar", workers=2, progress=False)
     batch = mc.run_study(study, tmp_path / "batch", "batch", chunk=2, progress=False)
@@ -80,10 +83,10 @@ def test_an_unknown_scenario_is_refused_naming_the_known_ones(tmp_path, capsys):
 def test_an_interrupted_study_keeps_the_finished_rows(course, tmp_path, monkeypatch, capsys):
     real = mc.run_chunk
 
-    def run_chunk(path, seeds, *args):
+    def run_chunk(path, seeds, *args, **kwargs):
         if 3 in seeds:
             raise KeyboardInterrupt  # Ctrl-C during the second batch
-        return real(path, seeds, *args)
+        return real(path, seeds, *args, **kwargs)
 
     monkeypatch.setattr(mc, "run_chunk", run_chunk)
     assert mc.main([str(course), "-n", "5", "--chunk", "2", "--out", str(tmp_path / "out")]) == mc.EXIT_INTERRUPTED

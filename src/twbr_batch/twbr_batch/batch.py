@@ -46,12 +46,14 @@ from twbr_control.estimator import N_MEMORY as N_ESTIMATOR_MEMORY
 from twbr_control.estimator import settings_vector as estimator_vector
 from twbr_planner.apf import (
     A_RHO_O,
+    A_ROBOT_RADIUS,
     PROGRESS_COLUMNS,
     Q_DISTANCE,
     Q_MODE,
     Q_OMEGA,
     Q_V,
     STUCK,
+    clearances,
     progress_capacity,
 )
 from twbr_planner.apf import N_MEMORY as N_PLANNER_MEMORY
@@ -60,6 +62,7 @@ from twbr_planner.apf import settings_vector as planner_vector
 from twbr_planner.planner import plan_step
 from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
 from twbr_planner.planner_params import resolve as resolve_planner
+from twbr_sim import lidar
 from twbr_sim.agents import N_AGENT_STATE, agent_arrays, agents_advance, agents_at, agents_begin, stepped
 from twbr_sim.dynamics import (
     LANES,
@@ -89,9 +92,11 @@ from twbr_sim.imu import IMU_STREAM, N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, imu
 from twbr_sim.imu import new_memory as new_imu_memory
 from twbr_sim.imu import settings_vector as imu_vector
 from twbr_sim.noise import new_generator
-from twbr_sim.robot_params import P_ROBOT_RADIUS, wheel_torque_limit
+from twbr_sim.robot_params import P_R, P_ROBOT_RADIUS, wheel_torque_limit
 from twbr_sim.scenario import Scenario, command_profile, command_profile_at, vary
 from twbr_sim.simulator import SENSOR_SPECS, SIM_SPECS, steps_per_publish
+from twbr_sim.target_sensor import TARGET_SENSOR_STREAM, measure_target
+from twbr_sim.target_sensor import settings_vector as look_vector
 from twbr_sim.traction import N_OUTPUTS as N_TRACTION_OUTPUTS
 from twbr_sim.traction import lane_wheel_loads, traction_flags, wheel_loads
 from twbr_sim.world import (
@@ -110,6 +115,24 @@ from twbr_sim.world import (
     target_at,
     yaw_rate_draws,
 )
+from twbr_tracker.detection import N_DISC
+from twbr_tracker.detection import settings_vector as detection_vector
+from twbr_tracker.target import (
+    MISSION_PRIOR_STD,
+    N_ESTIMATE,
+    TARGET_SPECS,
+    TF_PRIOR_STD,
+    TF_PRIOR_X,
+    TF_PRIOR_Y,
+    target_begin,
+    target_estimate,
+    target_measure,
+)
+from twbr_tracker.target import N_MEMORY as N_TARGET_MEMORY
+from twbr_tracker.target import settings_vector as target_vector
+from twbr_tracker.tracker import K_NEXT_ID, N_COUNTERS, N_OBSTACLE_ROW, TRACKER_SPECS, output_rows, tracker_scan
+from twbr_tracker.tracks import N_TRACK, TS_MAX_TRACKS
+from twbr_tracker.tracks import settings_vector as track_vector
 
 WORLD_RATE = default_of(SIM_SPECS, "world_rate")  # [Hz] collisions and clearance are sampled at it
 PLANNER_RATE = default_of(PLANNER_NODE_SPECS, "rate")  # [Hz]
@@ -122,7 +145,9 @@ PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 RUN_LAYOUT = Layout((
     "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
     "target_speed", "turn_interval", "capture_radius", "ring_rows", "sensors", "estimate", "friction",
-    "monitor", "footprint", "stop_margin", "deceleration", "reaction_time", "agents_stepped",
+    "monitor", "footprint", "stop_margin", "deceleration", "reaction_time", "agents_stepped", "lidar",
+    "scan_period", "look_period", "axle_height", "lidar_height", "scan_angle_min", "scan_angle_increment",
+    "scan_time_increment",
 ))
 U_H = RUN_LAYOUT["h"]
 U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
@@ -144,6 +169,18 @@ U_STOP_MARGIN = RUN_LAYOUT["stop_margin"]
 U_DECELERATION = RUN_LAYOUT["deceleration"]
 U_REACTION_TIME = RUN_LAYOUT["reaction_time"]
 U_AGENTS_STEPPED = RUN_LAYOUT["agents_stepped"]  # an obstacle moves other than on a fixed line (twbr_sim.agents)
+# Perception "lidar": the planner and the collision monitor on tracker_scan's obstacles from the simulated
+# scan, every scan_period [s], and the planner on the fused target from the detector's looks, every
+# look_period [s] (0: no detector, the world's target); the tracker's placing of the scanner (axle and
+# scanner heights [m]) and the scan's angle fields as a LaserScan carries them (float32) [rad, s].
+U_LIDAR = RUN_LAYOUT["lidar"]
+U_SCAN_PERIOD = RUN_LAYOUT["scan_period"]
+U_LOOK_PERIOD = RUN_LAYOUT["look_period"]
+U_AXLE_HEIGHT = RUN_LAYOUT["axle_height"]
+U_LIDAR_HEIGHT = RUN_LAYOUT["lidar_height"]
+U_SCAN_ANGLE_MIN = RUN_LAYOUT["scan_angle_min"]
+U_SCAN_ANGLE_INCREMENT = RUN_LAYOUT["scan_angle_increment"]
+U_SCAN_TIME_INCREMENT = RUN_LAYOUT["scan_time_increment"]
 # Per-robot result columns.
 # The first collision's obstacle (-1: none) and where the robot was when that obstacle last came into the
 # detection range (t [s], x, y [m], yaw [rad], speed [m/s], yaw rate [rad/s]), for the avoidability check;
@@ -208,7 +245,8 @@ N_TRACE = len(TRACE_LAYOUT)
 LOOP_LAYOUT = Layout((
     "left", "right", "lifted", "slipping", "lifted_samples", "slipping_samples", "world_next", "plan_next",
     "v_ref", "w_ref", "next_v", "next_w", "command_stamp", "new_plan", "plan_stamp", "commanded", "derived",
-    "world_t", "agent_steps",
+    "world_t", "agent_steps", "scan_next", "look_next", "seen_t", "seen_count", "target_known", "target_x",
+    "target_y", "target_vx", "target_vy",
 ))
 L_LEFT = LOOP_LAYOUT["left"]
 L_RIGHT = LOOP_LAYOUT["right"]
@@ -229,6 +267,15 @@ L_COMMANDED = LOOP_LAYOUT["commanded"]
 L_DERIVED = LOOP_LAYOUT["derived"]
 L_WORLD_T = LOOP_LAYOUT["world_t"]  # the last world instant: positions[j] are the obstacles then [s]
 L_AGENT_STEPS = LOOP_LAYOUT["agent_steps"]  # the agents' steps done (agents.agents_advance)
+L_SCAN_NEXT = LOOP_LAYOUT["scan_next"]  # [s] the next scan's instant
+L_LOOK_NEXT = LOOP_LAYOUT["look_next"]  # [s] the target detector's next look
+L_SEEN_T = LOOP_LAYOUT["seen_t"]  # [s] the last scan's instant: the seen_* arrays are the obstacles then
+L_SEEN_COUNT = LOOP_LAYOUT["seen_count"]  # obstacles the last scan gave
+L_TARGET_KNOWN = LOOP_LAYOUT["target_known"]  # the fused target at the last look (1: known) [m, m/s]
+L_TARGET_X = LOOP_LAYOUT["target_x"]
+L_TARGET_Y = LOOP_LAYOUT["target_y"]
+L_TARGET_VX = LOOP_LAYOUT["target_vx"]
+L_TARGET_VY = LOOP_LAYOUT["target_vy"]
 N_LOOP = len(LOOP_LAYOUT)
 
 
@@ -237,11 +284,14 @@ N_LOOP = len(LOOP_LAYOUT)
 # state and outputs; the planner's memory, progress ring and outputs; the world's tally; the obstacles'
 # positions [m] at the last world instant and distances [m]; whether each obstacle is in range and the robot's
 # state when it came in; the state's derivative, the IMU reading, odom, wheel loads; the estimator's
-# memory, the agents' states and the obstacles' velocities [m/s].
+# memory, the agents' states and the obstacles' velocities [m/s]; with the LiDAR the tracker's tracks,
+# covariances and counters, the obstacles it gave at the last scan (positions, velocities [m, m/s] and
+# radii), those moved to a plan's instant and their clearances, and the fused target's filter.
 MEMORY_ARRAYS_LAYOUT = Layout((
     "loop", "control", "control_out", "planner_memory", "ring", "plan_out", "tally", "positions", "distances",
     "detected", "detected_at", "derivative", "reading", "odometry", "loads", "estimator_memory",
-    "agent_state", "velocities",
+    "agent_state", "velocities", "tracks", "track_cov", "track_counters", "seen_positions", "seen_velocities",
+    "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov",
 ))
 MA_LOOP = MEMORY_ARRAYS_LAYOUT["loop"]
 MA_CONTROL = MEMORY_ARRAYS_LAYOUT["control"]
@@ -261,18 +311,33 @@ MA_LOADS = MEMORY_ARRAYS_LAYOUT["loads"]
 MA_ESTIMATOR_MEMORY = MEMORY_ARRAYS_LAYOUT["estimator_memory"]
 MA_AGENT_STATE = MEMORY_ARRAYS_LAYOUT["agent_state"]
 MA_VELOCITIES = MEMORY_ARRAYS_LAYOUT["velocities"]
+MA_TRACKS = MEMORY_ARRAYS_LAYOUT["tracks"]
+MA_TRACK_COV = MEMORY_ARRAYS_LAYOUT["track_cov"]
+MA_TRACK_COUNTERS = MEMORY_ARRAYS_LAYOUT["track_counters"]
+MA_SEEN_POSITIONS = MEMORY_ARRAYS_LAYOUT["seen_positions"]
+MA_SEEN_VELOCITIES = MEMORY_ARRAYS_LAYOUT["seen_velocities"]
+MA_SEEN_RADII = MEMORY_ARRAYS_LAYOUT["seen_radii"]
+MA_PLAN_POSITIONS = MEMORY_ARRAYS_LAYOUT["plan_positions"]
+MA_SEEN_DISTANCES = MEMORY_ARRAYS_LAYOUT["seen_distances"]
+MA_TARGET_MEMORY = MEMORY_ARRAYS_LAYOUT["target_memory"]
+MA_TARGET_COV = MEMORY_ARRAYS_LAYOUT["target_cov"]
 # What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
 # motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
 # v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
 # and the estimator's settings.
 WORLD_ARRAYS = ("segments", "agents", "waypoints", "radii", "profile")
 SENSOR_ARRAYS = ("imu_c", "imu_m", "generators", "encoder_c", "encoder_m", "estimator_q")
+# And of perception: the scanner's settings (twbr_sim.lidar) and each robot's generator, the detector's
+# (target_sensor) likewise, the tracker's detection and tracking settings, and each robot's target filter
+# settings (its prior: the robot's own layout's target start).
+PERCEPTION_ARRAYS = ("lidar_s", "lidar_generators", "look_s", "look_generators", "detection_d", "tracking_k",
+                     "target_s")
 
 
 @kernel
-def new_memories(n, run, n_obstacles):
+def new_memories(n, run, n_obstacles, n_tracks, n_seen):
     """Per-robot memories for n robots of a run, in MEMORY_ARRAYS_LAYOUT's order (the agents' states:
-    agents.AGENT_STATE_LAYOUT)."""
+    agents.AGENT_STATE_LAYOUT; n_tracks, n_seen: the tracker's table and output rows, 0 without LiDAR)."""
     return (
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
@@ -281,6 +346,9 @@ def new_memories(n, run, n_obstacles):
         np.zeros((n, N_STATE)), np.zeros((n, N_READING)), np.zeros((n, N_ENCODER_OUTPUTS)),
         np.zeros((n, N_TRACTION_OUTPUTS)), np.zeros((n, N_ESTIMATOR_MEMORY)),
         np.zeros((n, n_obstacles, N_AGENT_STATE)), np.zeros((n, n_obstacles, 2)),
+        np.zeros((n, n_tracks, N_TRACK)), np.zeros((n, n_tracks, 4, 4)), np.zeros((n, N_COUNTERS)),
+        np.zeros((n, n_seen, 2)), np.zeros((n, n_seen, 2)), np.zeros((n, n_seen)), np.zeros((n, n_seen, 2)),
+        np.zeros((n, n_seen)), np.zeros((n, N_TARGET_MEMORY)), np.zeros((n, 4, 4)),
     )
 
 
@@ -292,6 +360,13 @@ def robot_begin(j, run, result, memories, imu_c, imu_m, generator, agents):
     loop[j, :] = 0.0
     loop[j, L_WORLD_NEXT] = -math.inf
     loop[j, L_PLAN_NEXT] = -math.inf
+    loop[j, L_SCAN_NEXT] = -math.inf
+    loop[j, L_LOOK_NEXT] = -math.inf
+    memories[MA_TRACKS][j] = 0.0
+    memories[MA_TRACK_COV][j] = 0.0
+    memories[MA_TRACK_COUNTERS][j, :] = 0.0
+    memories[MA_TRACK_COUNTERS][j, K_NEXT_ID] = 1.0
+    target_begin(memories[MA_TARGET_MEMORY][j], memories[MA_TARGET_COV][j])
     loop[j, L_COMMANDED] = 0.0 if run[U_HAS_TARGET] != 0.0 else 1.0  # a planner's first command applies
     control[j, :] = 0.0                                                # from the second sample
     control[j, K_ENABLED] = 1.0
@@ -369,8 +444,8 @@ SERIAL_ROBOTS = 8  # at most this many running robots are stepped in one thread,
 
 
 @kernel
-def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, results, traces, torque_limits,
-             memories):
+def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, perception, results, traces,
+             torque_limits, memories):
     """The samples of robots running[lo:hi], each as run_closed_loop's: sense the state, assess the world,
     plan, control. ended[q]: robot running[q]'s run ends there, its result then complete; else the torques
     to apply until its next sample are in loop[j].
@@ -388,8 +463,23 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     derivative, reading = memories[MA_DERIVATIVE], memories[MA_READING]
     odometry, loads = memories[MA_ODOMETRY], memories[MA_LOADS]
     estimator_m = memories[MA_ESTIMATOR_MEMORY]
+    tracks, track_cov, track_counters = memories[MA_TRACKS], memories[MA_TRACK_COV], memories[MA_TRACK_COUNTERS]
+    seen_positions, seen_velocities = memories[MA_SEEN_POSITIONS], memories[MA_SEEN_VELOCITIES]
+    seen_radii, plan_positions = memories[MA_SEEN_RADII], memories[MA_PLAN_POSITIONS]
+    seen_distances = memories[MA_SEEN_DISTANCES]
+    target_memory, target_cov = memories[MA_TARGET_MEMORY], memories[MA_TARGET_COV]
     segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
     imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
+    lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s = perception
+    lidar_on = run[U_LIDAR] != 0.0
+    looks = lidar_on and run[U_LOOK_PERIOD] > 0.0  # the planner follows the fused target
+    # this call's scratch: a scan's ranges, the tracker's discs and output rows, a look, an estimate
+    beams = int(lidar_s[lidar.LD_BEAMS]) if lidar_on else 0
+    ranges = np.empty(beams)
+    discs = np.empty((beams, N_DISC))
+    rows = np.empty((seen_radii.shape[1], N_OBSTACLE_ROW))
+    look = np.empty(2)
+    fused = np.empty(N_ESTIMATE)
     h = run[U_H]
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
@@ -473,13 +563,68 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
                 tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
                 if math.hypot(tx - x, ty - y) <= run[U_CAPTURE_RADIUS]:
                     results[j, Z_REACHED_AT] = t
+        if lidar_on and is_due(t, loop[j, L_SCAN_NEXT]):  # as sim_node's scan and tracker_node on it
+            loop[j, L_SCAN_NEXT] = next_due(t, loop[j, L_SCAN_NEXT], run[U_SCAN_PERIOD])
+            agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
+            lidar.cast_scan(lidar_s, x, y, states[j, S_PSI], states[j, S_TH], states[j, S_XD], states[j, S_PSID],
+                            params[j, P_R], positions[j], velocities[j], radii, ranges)
+            lidar.scan_noise(lidar_s, lidar_generators[j], ranges)
+            for b in range(beams):
+                ranges[b] = np.float32(ranges[b])  # as a LaserScan carries them
+            count = tracker_scan(detection_d, tracking_k, tracks[j], track_cov[j], track_counters[j], t, ranges,
+                                 run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
+                                 odom_x, odom_y, odom_yaw, odom_velocity, yaw_rate, states[j, S_TH],
+                                 run[U_AXLE_HEIGHT], run[U_LIDAR_HEIGHT], discs, rows)
+            for r in range(count):
+                seen_positions[j, r, 0] = rows[r, 1]
+                seen_positions[j, r, 1] = rows[r, 2]
+                seen_velocities[j, r, 0] = rows[r, 3]
+                seen_velocities[j, r, 1] = rows[r, 4]
+                seen_radii[j, r] = rows[r, 5]
+            loop[j, L_SEEN_COUNT] = count
+            loop[j, L_SEEN_T] = t
+        if looks and has_target and is_due(t, loop[j, L_LOOK_NEXT]):  # the detector's look, fused
+            loop[j, L_LOOK_NEXT] = next_due(t, loop[j, L_LOOK_NEXT], run[U_LOOK_PERIOD])
+            tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
+            agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
+            if measure_target(look_s, look_generators[j], x, y, states[j, S_PSI], states[j, S_TH], tx, ty,
+                              positions[j], radii, look):
+                # (the graph's PoseArray, x ahead and y left, read back as range and bearing, rounds them
+                # in the last bit, by Python's libm rather than the compiled one: left out here and in the
+                # scalar cores alike)
+                target_measure(target_s[j], target_memory[j], target_cov[j], t, look[0], look[1], odom_x, odom_y,
+                               odom_yaw, states[j, S_TH])
+            known = target_estimate(target_s[j], target_memory[j], target_cov[j], t, fused)
+            loop[j, L_TARGET_KNOWN] = 1.0 if known else 0.0
+            if known:
+                loop[j, L_TARGET_X] = fused[0]
+                loop[j, L_TARGET_Y] = fused[1]
+                loop[j, L_TARGET_VX] = fused[2]
+                loop[j, L_TARGET_VY] = fused[3]
         if has_target:
             if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
                 loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
                 tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
+                if looks:  # the fused target of the last look (a runner's tracker always has a prior)
+                    tx = loop[j, L_TARGET_X]
+                    ty = loop[j, L_TARGET_Y]
+                    tvx = loop[j, L_TARGET_VX]
+                    tvy = loop[j, L_TARGET_VY]
                 agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
-                plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty, tvx,
-                          tvy, positions[j], velocities[j], radii, distances[j])
+                if lidar_on:  # the last scan's obstacles moved to now, as planner_node moves them
+                    count = int(loop[j, L_SEEN_COUNT])
+                    age = max(0.0, t - loop[j, L_SEEN_T])
+                    for r in range(count):
+                        plan_positions[j, r, 0] = seen_positions[j, r, 0] + seen_velocities[j, r, 0] * age
+                        plan_positions[j, r, 1] = seen_positions[j, r, 1] + seen_velocities[j, r, 1] * age
+                    plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
+                              tvx, tvy, plan_positions[j, :count], seen_velocities[j, :count], seen_radii[j, :count],
+                              seen_distances[j, :count])
+                    # the world's obstacles' clearances, for the avoidability check's bookkeeping below
+                    clearances(odom_x, odom_y, positions[j], radii, a[A_ROBOT_RADIUS], distances[j])
+                else:
+                    plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
+                              tvx, tvy, positions[j], velocities[j], radii, distances[j])
                 loop[j, L_NEXT_V] = plan_out[j, Q_V]
                 loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
                 loop[j, L_NEW_PLAN] = 1.0
@@ -506,10 +651,16 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
         hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
         v_ref = loop[j, L_V_REF]
-        if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor, on the world's list
-            v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], velocities[j], radii,
-                                  t - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION],
-                                  run[U_REACTION_TIME])
+        if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor
+            if lidar_on:  # on the tracker's list
+                count = int(loop[j, L_SEEN_COUNT])
+                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, seen_positions[j, :count],
+                                      seen_velocities[j, :count], seen_radii[j, :count], t - loop[j, L_SEEN_T],
+                                      run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION], run[U_REACTION_TIME])
+            else:  # on the world's
+                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], velocities[j], radii,
+                                      t - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN],
+                                      run[U_DECELERATION], run[U_REACTION_TIME])
             if v_ref != loop[j, L_V_REF]:
                 results[j, Z_COLLISION_LIMITED] += 1
         cascade_compute(c, control[j], control_out[j], t, v_ref, loop[j, L_W_REF], velocity, yaw_rate, pitch,
@@ -551,7 +702,8 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, radii, profile,
-                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lanes, threads):
+                results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lidar_s,
+                lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s, lanes, threads):
     """All robots' runs, sample by sample: every running robot's sample (_samples, a share of the robots per
     thread), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
@@ -564,15 +716,19 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     robot's target segment and yaw-rate draws, obstacles' motions (agents.AGENT_LAYOUT) and waypoints [m]; the radii [m]; the
     command profile (three rows: t [s], v [m/s], omega [rad/s]); results: RESULT_LAYOUT rows; traces: rows of
     TRACE_LAYOUT per robot; the sensors' settings, each robot's sensor memories and generator, and the
-    estimator's settings, used when run[U_SENSORS] is set (ideal sensors read the state directly)."""
+    estimator's settings, used when run[U_SENSORS] is set (ideal sensors read the state directly); and
+    perception's (PERCEPTION_ARRAYS), used when run[U_LIDAR] is set."""
     n = params.shape[0]
     n_params = params.shape[1]
     h = run[U_H]
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
-    memories = new_memories(n, run, radii.shape[0])
+    lidar_on = run[U_LIDAR] != 0.0
+    memories = new_memories(n, run, radii.shape[0], int(tracking_k[TS_MAX_TRACKS]) if lidar_on else 0,
+                            output_rows(tracking_k, int(lidar_s[lidar.LD_BEAMS])) if lidar_on else 0)
     loop, derivative, loads = memories[MA_LOOP], memories[MA_DERIVATIVE], memories[MA_LOADS]
     world = (segments, agents, waypoints, radii, profile)  # WORLD_ARRAYS
     sensors = (imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q)  # SENSOR_ARRAYS
+    perception = (lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s)
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
@@ -587,13 +743,13 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     n_running = n
     while n_running > 0:
         if n_running <= SERIAL_ROBOTS:  # so few that starting the threads costs more than they save
-            _samples(running, np.int64(0), n_running, ended, params, states, c, a, run, world, sensors, results,
-                     traces, torque_limits, memories)
+            _samples(running, np.int64(0), n_running, ended, params, states, c, a, run, world, sensors, perception,
+                     results, traces, torque_limits, memories)
         else:
             share = (n_running + threads - 1) // threads
             for g in prange(threads):
                 _samples(running, min(g * share, n_running), min((g + 1) * share, n_running), ended, params,
-                         states, c, a, run, world, sensors, results, traces, torque_limits, memories)
+                         states, c, a, run, world, sensors, perception, results, traces, torque_limits, memories)
         m = 0
         for q in range(n_running):
             if not ended[q]:
@@ -686,11 +842,16 @@ def run_batch(
     record: bool = False,
     sim: Mapping[str, Any] | None = None,
     lanes: int | None = None,
+    perception: str = "truth",
+    tracker: Mapping[str, Any] | None = None,
 ) -> BatchResult:
     """Run len(seeds) robots of `scenario`; robot i has the parameter vector params[i] (robot_params) and
     the world (and sensor noise) of seeds[i]. Settings default to the parameter tables (the planner's under
     what the scenario pins; `sim`: the simulator's sensor and traction parameters, imu.*, encoder.*,
-    traction.*); `duration` to the scenario's. `lanes`: robots stepped together (group_size by default)."""
+    traction.*, lidar.*, target_sensor.*); `duration` to the scenario's. `lanes`: robots stepped together
+    (group_size by default). `perception` "lidar": the planner and the collision monitor on what the
+    tracker (`tracker`: tracker_node's parameters) makes of the simulated scan and target detector, as the
+    runner's graph with --perception lidar (the target's start handed to the tracker as its prior)."""
     n = len(seeds)
     params = np.ascontiguousarray(params, dtype=float)
     if n < 1 or params.shape[0] != n:
@@ -736,6 +897,8 @@ def run_batch(
         "deceleration": control_cfg["collision_monitor.deceleration"],
         "reaction_time": control_cfg["collision_monitor.reaction_time"],
         "agents_stepped": bool(stepped(agents[0])),
+        **dict.fromkeys(("lidar", "scan_period", "look_period", "axle_height", "lidar_height", "scan_angle_min",
+                         "scan_angle_increment", "scan_time_increment"), 0.0),  # set below
     })
     sim_cfg = validate_all(SENSOR_SPECS, {**defaults(SENSOR_SPECS), **(sim or {})})
     imu_c = imu_vector(sim_cfg, rate)
@@ -749,10 +912,37 @@ def run_batch(
     run[U_SENSORS] = 0.0 if ideal and not estimate else 1.0
     run[U_ESTIMATE] = 1.0 if estimate else 0.0
     run[U_FRICTION] = sim_cfg["traction.friction"]
+    lidar_on = perception == "lidar" and tgt is not None  # without a planner there is nothing to see for
+    if perception not in ("truth", "lidar"):
+        raise ConfigError(f"batch: perception {perception!r}: need 'truth' or 'lidar'")
+    if lidar_on and sim_cfg["lidar.rate"] <= 0.0:
+        raise ConfigError("batch: perception 'lidar' with lidar.rate = 0: the robot has no LiDAR")
+    tracker_cfg = validate_all((*TRACKER_SPECS, *TARGET_SPECS),
+                               {**defaults((*TRACKER_SPECS, *TARGET_SPECS)), **(tracker or {})})
+    lidar_s = lidar.settings_vector(sim_cfg)
+    tracking_k = track_vector(tracker_cfg)
+    look_rate = sim_cfg["target_sensor.rate"] if lidar_on else 0.0
+    target_s = np.tile(target_vector(tracker_cfg), (n, 1))
+    if tgt is not None:  # each robot's tracker told where its layout's target starts
+        target_s[:, [TF_PRIOR_X, TF_PRIOR_Y]] = [(s.target.x, s.target.y) for s in layouts]
+        target_s[:, TF_PRIOR_STD] = MISSION_PRIOR_STD
+    run[U_LIDAR] = 1.0 if lidar_on else 0.0
+    run[U_SCAN_PERIOD] = 1.0 / sim_cfg["lidar.rate"] if sim_cfg["lidar.rate"] > 0.0 else 0.0
+    run[U_LOOK_PERIOD] = 1.0 / look_rate if look_rate > 0.0 else 0.0
+    run[U_AXLE_HEIGHT] = tracker_cfg["axle_height"]
+    run[U_LIDAR_HEIGHT] = tracker_cfg["lidar_height"]
+    # the angle fields as a LaserScan carries them (float32), as scan_messages.laser_scan fills them
+    run[U_SCAN_ANGLE_MIN] = np.float32(sim_cfg["lidar.angle_min"])
+    run[U_SCAN_ANGLE_INCREMENT] = np.float32(sim_cfg["lidar.angle_increment"])
+    run[U_SCAN_TIME_INCREMENT] = np.float32(run[U_SCAN_PERIOD] / lidar_s[lidar.LD_BEAMS])
+    lidar_generators = np.stack([new_generator(seed, lidar.LIDAR_STREAM) for seed in seeds])
+    look_generators = np.stack([new_generator(seed, TARGET_SENSOR_STREAM) for seed in seeds])
     results = np.zeros((n, N_RESULT))
     traces = np.zeros((n, n_samples, N_TRACE)) if record else np.zeros((1, 0, N_TRACE))
     with parallel_chunksize(0):  # equal shares: the running robots are kept together
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     agents, waypoints, radii, profile, results, traces, imu_c, imu_m, generators,
-                    encoder_c, encoder_m, estimator_vector(control_cfg), lanes, get_num_threads())
+                    encoder_c, encoder_m, estimator_vector(control_cfg), lidar_s, lidar_generators,
+                    look_vector(sim_cfg), look_generators, detection_vector(tracker_cfg), tracking_k, target_s, lanes,
+                    get_num_threads())
     return BatchResult(results, traces if record else None, physics_rate)

@@ -22,6 +22,7 @@ from twbr_control.controller_params import resolve as resolve_controller
 from twbr_control.estimator import PitchEstimator, uses_estimator
 from twbr_control.state_sync import VelocityCommand
 from twbr_sim import dynamics as dyn
+from twbr_sim import lidar
 from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
 from twbr_sim.scenario import Scenario, command_at
@@ -123,12 +124,17 @@ def run_closed_loop(
 
 
 def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
-                      log: list | None = None, control: Mapping[str, Any] | None = None) -> Reference:
+                      log: list | None = None, control: Mapping[str, Any] | None = None,
+                      perception: str = "truth", tracker: Mapping[str, Any] | None = None) -> Reference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
     planner node's default when None). Its settings are `planner` over what the simulator's scenario pins,
     so it is built at the first step, when the simulator is known. The controller node's collision monitor
     (its settings from `control`, the defaults when None) limits the speed at every sample, on the world's
-    obstacles of the last planning instant, as the node has them from the world's last message."""
+    obstacles of the last planning instant, as the node has them from the world's last message.
+
+    `perception` "lidar": as the runner's graph with tracker_node (its parameters `tracker`), the planner
+    and the monitor take the obstacles the tracker core makes of each of the simulator's scans, and the
+    planner follows the target its filter makes of the detector's looks (the target's start as its prior)."""
     from twbr_planner.apf import Obstacles
     from twbr_planner.planner import ApfPlanner, Target
     from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
@@ -142,21 +148,27 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
     command = VelocityCommand(timeout=math.inf)
     held: dict[str, Any] = {"core": None}
     monitor = CollisionMonitor(resolve_controller(control))
+    seeing = LidarPerception(tracker) if perception == "lidar" else None
 
     def reference(t: float, sim: Simulator) -> tuple[float, float, float | None]:
         if held["core"] is None:
             held["core"] = ApfPlanner(resolve_planner(planner, sim.scenario), rate)
         v_ref, w_ref, never_commanded = command.at(t)
+        if seeing is not None:
+            seeing.sense(t, sim, monitor)
         if due.due(t):
             odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
             world = sim.world
-            state = world.target() if world is not None else None
-            target = Target(state.x, state.y, *state.velocity) if state is not None else None
-            listed = world.obstacles() if world else []
-            obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in listed])
-                         if world else Obstacles.empty())
-            if listed:
-                monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
+            if seeing is not None:
+                target, obstacles = seeing.target(sim), seeing.obstacles_at(t)
+            else:
+                state = world.target() if world is not None else None
+                target = Target(state.x, state.y, *state.velocity) if state is not None else None
+                listed = world.obstacles() if world else []
+                obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in listed])
+                             if world else Obstacles.empty())
+                if listed:
+                    monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
             out = held["core"].step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
             if log is not None:
                 log.append(out)
@@ -167,3 +179,72 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
         return v_ref, w_ref, None if never_commanded else command.since
 
     return reference
+
+
+class LidarPerception:
+    """What tracker_node makes of a simulator's scan and target detector, on the scalar cores (the tracker's
+    and target filter's classes), with a LaserScan's rounding: float32 ranges and angle fields."""
+
+    def __init__(self, tracker: Mapping[str, Any] | None) -> None:
+        from twbr_tracker.target import MISSION_PRIOR_STD, TARGET_SPECS, TargetFilter
+        from twbr_tracker.tracker import TRACKER_SPECS, Tracker
+
+        specs = (*TRACKER_SPECS, *TARGET_SPECS)
+        self.cfg = validate_all(specs, {**defaults(specs), **(tracker or {}), "target.prior_std": MISSION_PRIOR_STD})
+        self.tracker = Tracker(self.cfg)
+        self.filter: TargetFilter | None = None  # built at the first look: its prior is where the target starts
+        self.rows = np.zeros((0, 6))  # the last scan's obstacles: id, x, y, vx, vy, radius
+        self.stamp = 0.0
+        self.fused: Any = None  # the last look's planner Target
+        self._scan_due: Decimator | None = None
+        self._look_due: Decimator | None = None
+
+    def sense(self, t: float, sim: Simulator, monitor: CollisionMonitor) -> None:
+        """The scan and the look due at t, as sim_node publishes them and tracker_node takes them."""
+        from twbr_planner.planner import Target
+        from twbr_tracker.target import TargetFilter
+
+        if self._scan_due is None:
+            self._scan_due = Decimator(sim.lidar_rate)
+            self._look_due = Decimator(sim.target_sensor_rate) if sim.target_sensor_rate > 0.0 else None
+        odom = sim.sense().encoders
+        pitch = sim.state[dyn.S_TH]  # odom's orientation carries the true pitch
+        if self._scan_due.due(t):
+            s = sim.lidar_settings
+            ranges = sim.scan().astype(np.float32).astype(np.float64)
+            listed = self.tracker.step(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
+                                       float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
+                                       float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X], odom[J_Y],
+                                       odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
+            self.rows = np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed], dtype=float).reshape(-1, 6)
+            self.stamp = t
+            monitor.obstacles(t, self.rows)
+        if self._look_due is not None and sim.world is not None and self._look_due.due(t):
+            if self.filter is None:
+                start = sim.world.target()
+                self.filter = TargetFilter({**self.cfg, "target.prior_x": start.x, "target.prior_y": start.y})
+            seen = sim.target_detection()
+            if seen is not None:  # range and bearing as measured (the batch's: see there)
+                self.filter.measure(t, seen[0], seen[1], odom[J_X], odom[J_Y], odom[J_YAW], pitch)
+            estimate = self.filter.estimate(t)
+            self.fused = Target(estimate.x, estimate.y, estimate.vx, estimate.vy)
+
+    def target(self, sim: Simulator) -> Any:
+        """The fused target (the world's where the robot has no detector)."""
+        from twbr_planner.planner import Target
+
+        if self._look_due is None:
+            state = sim.world.target() if sim.world is not None else None
+            return Target(state.x, state.y, *state.velocity) if state is not None else None
+        return self.fused
+
+    def obstacles_at(self, t: float) -> Any:
+        """The last scan's obstacles moved along their velocities to t, as planner_node moves them."""
+        from twbr_planner.apf import Obstacles
+
+        if not len(self.rows):
+            return Obstacles.empty()
+        age = max(0.0, t - self.stamp)
+        velocities = np.ascontiguousarray(self.rows[:, 3:5])
+        return Obstacles(self.rows[:, 1:3] + velocities * age, self.rows[:, 5].copy(), self.rows[:, 0].astype(int),
+                         velocities)

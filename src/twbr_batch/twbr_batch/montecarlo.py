@@ -55,7 +55,7 @@ from twbr_common.params import ConfigError, defaults
 from twbr_common.timing import Decimator
 from twbr_control.cascade import CONTROLLERS
 from twbr_sim.robot_params import ROBOT_SPECS, robot_params
-from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario import PERCEPTIONS, load_scenario, run_perception
 from twbr_sim.scenario_files import SENSOR_PRESETS, find_scenario, sensor_preset
 
 PERTURBED = ("body_mass", "wheel_mass", "wheel_inertia", "wheel_yaw_inertia", "body_inertia_roll",
@@ -77,8 +77,11 @@ class Study:
     first_seed: int = 1
     sensors: str = "ideal"  # or "realistic" (config/sensors_realistic.yaml)
     controller: str = "pid"  # or "lqr"
+    perception: str | None = None  # "truth" or "lidar" (None: the scenario's own)
 
     def __post_init__(self) -> None:
+        if self.perception is not None and self.perception not in PERCEPTIONS:
+            raise ConfigError(f"invalid perception {self.perception!r}: must be one of {', '.join(PERCEPTIONS)}")
         if self.sensors not in SENSOR_PRESETS:
             raise ConfigError(f"invalid sensors {self.sensors!r}: must be one of {', '.join(SENSOR_PRESETS)}")
         if self.controller not in CONTROLLERS:
@@ -93,6 +96,11 @@ class Study:
     @property
     def seeds(self) -> range:
         return range(self.first_seed, self.first_seed + self.runs)
+
+    @property
+    def perceived(self) -> str:
+        """What the planner sees in this study: its choice, else the scenario's."""
+        return run_perception(load_scenario(self.scenario), self.perception)
 
 
 @dataclass(frozen=True)
@@ -154,14 +162,15 @@ def perturbed_robot(factors: dict[str, float]) -> dict[str, float]:
 
 
 def run_chunk(scenario_path: str, seeds: list[int], perturbation: float, sensors: str = "ideal",
-              controller: str = "pid", duration: float | None = None) -> list[StudyRow]:
+              controller: str = "pid", duration: float | None = None, perception: str = "truth") -> list[StudyRow]:
     """Runs of the scenario for `seeds` through the batch engine: CSV rows, by seed (`duration`: the
-    scenario's unless given)."""
+    scenario's unless given; `perception`: what the planner sees, run_batch's)."""
     scenario = load_scenario(Path(scenario_path))
     factors = [perturbation_factors(seed, perturbation) for seed in seeds]
     params = np.stack([robot_params(perturbed_robot(f)) for f in factors])
     table = run_batch(scenario, seeds, params, control={"controller": controller}, planner_rate=PLANNER_RATE,
-                      world_rate=WORLD_RATE, sim=sensor_preset(sensors), duration=duration).table
+                      world_rate=WORLD_RATE, sim=sensor_preset(sensors), duration=duration,
+                      perception=perception).table
     return [
         StudyRow(
             seed=seed, perturbation=perturbation, reached=not math.isnan(z[Z_REACHED_AT]),
@@ -176,15 +185,17 @@ def run_chunk(scenario_path: str, seeds: list[int], perturbation: float, sensors
 
 
 def run_one(scenario_path: str, seed: int, perturbation: float, sensors: str = "ideal",
-            controller: str = "pid") -> StudyRow:
+            controller: str = "pid", perception: str = "truth") -> StudyRow:
     """One run of the scenario on the scalar cores (the nodes' classes): a CSV row."""
-    return run_one_traced(scenario_path, seed, perturbation, sensors=sensors, controller=controller)[0]
+    return run_one_traced(scenario_path, seed, perturbation, sensors=sensors, controller=controller,
+                          perception=perception)[0]
 
 
 def run_one_traced(scenario_path: str, seed: int, perturbation: float,
                    planner: Mapping[str, Any] | None = None, sensors: str = "ideal",
-                   controller: str = "pid") -> tuple[StudyRow, Any]:
-    """run_one, and the run's closed_loop.Trace; `planner`: planner parameters other than the defaults."""
+                   controller: str = "pid", perception: str = "truth") -> tuple[StudyRow, Any]:
+    """run_one, and the run's closed_loop.Trace; `planner`: planner parameters other than the defaults;
+    `perception`: what the planner sees (closed_loop.planner_reference's)."""
     from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode
 
@@ -192,7 +203,7 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float,
     factors = perturbation_factors(seed, perturbation)
     robot = perturbed_robot(factors)
     planner_log: list = []
-    plan = planner_reference(planner, rate=PLANNER_RATE, log=planner_log)
+    plan = planner_reference(planner, rate=PLANNER_RATE, log=planner_log, perception=perception)
     command = scenario_reference(scenario)
     world = {"reached_at": None, "min_clearance": math.inf, "collisions": 0}
     world_due = Decimator(WORLD_RATE)
@@ -262,7 +273,7 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
     path = str(study.scenario)
     if workers == 1:
         for seed in study.seeds:
-            yield run_one(path, seed, study.perturbation, study.sensors, study.controller)
+            yield run_one(path, seed, study.perturbation, study.sensors, study.controller, study.perceived)
         return
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_ignore_interrupts)
     pending: set[Future] = set()
@@ -273,7 +284,8 @@ def _scalar_rows(study: Study, workers: int) -> Iterator[StudyRow]:
                 seed = next(seeds, None)
                 if seed is None:
                     break
-                pending.add(pool.submit(run_one, path, seed, study.perturbation, study.sensors, study.controller))
+                pending.add(pool.submit(run_one, path, seed, study.perturbation, study.sensors, study.controller,
+                                        study.perceived))
             if not pending:
                 return
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -289,14 +301,15 @@ def load_kernels(study: Study, chunk: int) -> None:
     and the study's wall time, then count only the runs."""
     loaded = loading_kernels(lambda line: print(f"montecarlo: {line}", flush=True), "the batch engine", 100.0)
     seeds = next(iter(_chunks(study, chunk)))
-    run_chunk(str(study.scenario), seeds, study.perturbation, study.sensors, study.controller, 0.1)
+    run_chunk(str(study.scenario), seeds, study.perturbation, study.sensors, study.controller, 0.1, study.perceived)
     loaded()
 
 
 def _batch_rows(study: Study, chunk: int) -> Iterator[StudyRow]:
     """Rows chunk by chunk through the batch engine in this process (its threads use every core)."""
     for seeds in _chunks(study, chunk):
-        yield from run_chunk(str(study.scenario), seeds, study.perturbation, study.sensors, study.controller)
+        yield from run_chunk(str(study.scenario), seeds, study.perturbation, study.sensors, study.controller,
+                             perception=study.perceived)
 
 
 def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[StudyRow]:
@@ -309,7 +322,7 @@ def _dask_rows(study: Study, chunk: int, scheduler: str) -> Iterator[StudyRow]:
         raise ConfigError(f"cannot reach the Dask scheduler at {scheduler!r}: {e}") from None
     try:
         futures = [client.submit(run_chunk, str(study.scenario), seeds, study.perturbation, study.sensors,
-                                 study.controller, pure=False)
+                                 study.controller, None, study.perceived, pure=False)
                    for seeds in _chunks(study, chunk)]
         try:
             for future in as_completed(futures, loop=client.loop):
@@ -395,6 +408,7 @@ def summarise(rows: list[StudyRow], study: Study, wall_s: float, engine: str) ->
         "perturbation": study.perturbation,
         "sensors": study.sensors,
         "controller": study.controller,
+        "perception": study.perceived,
         "success_rate": sum(r.succeeded for r in rows) / n if n else None,
         "reached": sum(r.reached for r in rows),
         "collided": sum(bool(r.collisions) for r in rows),
@@ -452,6 +466,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="the robot's sensors: ideal (default), or realistic (config/sensors_realistic.yaml: raw IMU"
                          " with noise, bias and delay, 1024-count encoders; the controller estimates pitch)")
     ap.add_argument("--controller", choices=CONTROLLERS, default="pid", help="control law (default pid)")
+    ap.add_argument("--perception", choices=PERCEPTIONS,
+                    help="what the planner sees: lidar (the simulated scan and target detector through the tracker's"
+                         " kernels) or truth (the world's); default: the scenario's (truth for the paper's three)")
     ap.add_argument("--engine", choices=ENGINES, default="batch",
                     help="batch: the batch engine, threads on every core (default); scalar: the nodes' core classes,"
                          " one process per core (a cross-check, about 100 times slower)")
@@ -466,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
     opts = ap.parse_args(argv)
     try:
         study = Study(find_scenario(opts.scenario), opts.runs, opts.perturb, opts.first_seed, opts.sensors,
-                      opts.controller)
+                      opts.controller, opts.perception)
         if opts.workers < 1:
             raise ConfigError(f"invalid --workers {opts.workers}: must be at least 1")
         if opts.chunk < 1:
@@ -486,7 +503,7 @@ def main(argv: list[str] | None = None) -> int:
     out_dir = opts.out / f"{study.scenario.stem}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
     print(f"montecarlo: {study.runs} runs of {study.scenario.stem} (seeds {study.seeds.start}.."
           f"{study.seeds.stop - 1}, perturbation {study.perturbation:g}, {study.sensors} sensors,"
-          f" {study.controller}) on {where} -> {out_dir}",
+          f" {study.controller}, perception {study.perceived}) on {where} -> {out_dir}",
           flush=True)
     signal.signal(signal.SIGTERM, _interrupt)
     signal.signal(signal.SIGINT, _interrupt)

@@ -3,6 +3,7 @@
     python -m twbr_batch.suite -n 1000                 # or: make suite N=1000
     python -m twbr_batch.suite -n 200 --ablation       # the robust method with each addition off in turn
     python -m twbr_batch.suite -n 100 --scenarios my_lab.yaml,gap_1m   # your own layouts beside the suite's
+    python -m twbr_batch.suite -n 100 --methods robust --perception truth,lidar   # side by side
 
 Every scenario of config/scenarios/suite and the paper's three navigation scenarios run for n seeds (each
 seed its own layout where the scenario varies, its own target turns) with a 120 s limit. Every run is
@@ -10,6 +11,10 @@ classified (avoidability.classify): success, a collision (avoidable or not, comp
 detection), a fall, trapped, outrun or late. Writes <out>/runs.csv (one row per run), table.md and
 summary.json (one row per scenario and method), and figures/<scenario>.png (the field and the first
 seeds' paths of each method).
+
+The planner sees what each scenario says (`perception`: the simulated LiDAR and target detector through
+the tracker's kernels, or the paper's three, the world's truth) unless --perception chooses; with two
+choices every method runs on both, as "<method>" (truth) and "<method> lidar".
 """
 
 from __future__ import annotations
@@ -49,7 +54,7 @@ from twbr_common.params import ConfigError
 from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import resolve as resolve_planner
 from twbr_sim.robot_params import robot_params
-from twbr_sim.scenario import Scenario, load_scenario, vary
+from twbr_sim.scenario import PERCEPTIONS, Scenario, load_scenario, run_perception, vary
 from twbr_sim.scenario_files import find_scenario, suite_names
 from twbr_sim.world import World
 
@@ -92,6 +97,7 @@ class SuiteRow:
     final_distance_m: float
     sim_time_s: float
     torque_step_max_nm: float = math.nan  # a wheel's largest torque change between two control samples
+    perception: str = "truth"  # what the planner's obstacles and target came from: "truth" or "lidar"
 
     @property
     def succeeded(self) -> bool:
@@ -152,14 +158,23 @@ def robot_limits(planner: Mapping[str, Any]) -> Limits:
                   planner["max_yaw_acceleration"])
 
 
+def split_variant(variant: Mapping[str, Any]) -> tuple[dict[str, Any], str | None]:
+    """A variant's planner parameters, and its perception (None: the scenario's)."""
+    planner = dict(variant)
+    return planner, planner.pop("perception", None)
+
+
 def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequence[int]) -> list[SuiteRow]:
-    """Runs of one scenario with one planner variant, classified."""
+    """Runs of one scenario with one planner variant (its `perception` key, if any, says what the planner
+    sees), classified."""
     scenario = load_scenario(path)
+    planner, asked = split_variant(planner)
+    perception = run_perception(scenario, asked)
     cfg = resolve_planner(planner, scenario)
     limits = robot_limits(cfg)
     robot_radius = cfg["robot_radius"]
     table = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
-                      duration=TIME_LIMIT).table
+                      duration=TIME_LIMIT, perception=perception).table
     moving_target = scenario.target is not None and scenario.target.speed > 0.0
     rows = []
     for seed, z in zip(seeds, table, strict=True):
@@ -182,7 +197,7 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
             min_clearance_m=finite_or_none(z[Z_MIN_CLEARANCE]), fallen=bool(z[Z_FALLEN]),
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),
             final_distance_m=float(z[Z_FINAL_DISTANCE]), sim_time_s=float(z[Z_SIM_TIME]),
-            torque_step_max_nm=float(z[Z_TORQUE_STEP_MAX]),
+            torque_step_max_nm=float(z[Z_TORQUE_STEP_MAX]), perception=perception,
         ))
     return rows
 
@@ -259,10 +274,11 @@ def scenario_figure(path: Path, variants: Mapping[str, Mapping[str, Any]], out: 
     scenario = load_scenario(path)
     seeds = list(range(1, TRACED_SEEDS + 1))
     fig, axes = plt.subplots(1, len(variants), figsize=(6.5 * len(variants), 6), squeeze=False)
-    for ax, (variant, planner) in zip(axes[0], variants.items(), strict=True):
+    for ax, (variant, chosen) in zip(axes[0], variants.items(), strict=True):
+        planner, asked = split_variant(chosen)
         cfg = resolve_planner(planner, scenario)
         result = run_batch(scenario, seeds, np.tile(robot_params(), (len(seeds), 1)), planner=cfg,
-                           duration=TIME_LIMIT, record=True)
+                           duration=TIME_LIMIT, record=True, perception=run_perception(scenario, asked))
         layout = vary(scenario, seeds[0])
         xs = [layout.start_x] + [o.x for o in layout.obstacles] + ([layout.target.x] if layout.target else [])
         ys = [layout.start_y] + [o.y for o in layout.obstacles] + ([layout.target.y] if layout.target else [])
@@ -330,6 +346,19 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
     return summary
 
 
+def with_perceptions(variants: Mapping[str, Mapping[str, Any]], text: str | None) -> dict[str, dict[str, Any]]:
+    """The variants on each perception `text` names ("truth", "lidar" or both, comma-separated); one: the
+    variants' names kept, two: "<variant>" on the truth and "<variant> lidar"."""
+    if text is None:
+        return {name: dict(v) for name, v in variants.items()}
+    chosen = [p.strip() for p in text.split(",") if p.strip()]
+    if not chosen or any(p not in PERCEPTIONS for p in chosen) or len(set(chosen)) < len(chosen):
+        raise ConfigError(f"invalid --perception {text!r}: must be truth, lidar or truth,lidar")
+    both = len(chosen) > 1
+    return {(f"{name} {p}" if both and p != "truth" else name): {**v, "perception": p}
+            for p in chosen for name, v in variants.items()}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="suite", description=__doc__.split("\n\n")[0])
     ap.add_argument("-n", "--runs", type=int, default=1000, help="seeds per scenario and method (default 1000)")
@@ -340,6 +369,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the robust method with each addition switched off in turn, instead of the methods")
     ap.add_argument("--scenarios", help="only these scenarios, comma-separated: suite names (gap_1m), installed"
                     " names (static, suite/gap_1m) or your own scenario files")
+    ap.add_argument("--perception", help="what the planner sees: truth, lidar, or truth,lidar for both side by"
+                    " side (default: each scenario's own, lidar but for the paper's three)")
     ap.add_argument("--out", type=Path, default=Path("runs") / "suite")
     ap.add_argument("--no-figures", action="store_true")
     opts = ap.parse_args(argv)
@@ -356,6 +387,7 @@ def main(argv: list[str] | None = None) -> int:
             if unknown or not methods:
                 raise ConfigError(f"invalid --methods {opts.methods!r}: must be some of {', '.join(METHODS)}")
             variants = {m: {"method": m} for m in methods}
+        variants = with_perceptions(variants, opts.perception)
         paths = chosen_scenarios(opts.scenarios) if opts.scenarios else suite_scenarios()
     except ConfigError as e:
         print(f"suite: {e}", file=sys.stderr)

@@ -156,10 +156,10 @@ class MujocoSimulator(Simulator):
         (lidar_scene.py), with the device's noise and dropouts."""
         s, d = self.state, self.data
         positions, velocities, radii = self.obstacle_arrays()
-        ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
-        self.lidar_scene.cast(self._lidar_s, d.xpos[self._chassis], d.xmat[self._chassis].reshape(3, 3),
+        ranges = np.empty(int(self.lidar_settings[lidar.LD_BEAMS]))
+        self.lidar_scene.cast(self.lidar_settings, d.xpos[self._chassis], d.xmat[self._chassis].reshape(3, 3),
                               s[dyn.S_XD], s[dyn.S_PSID], positions, velocities, radii, ranges)
-        lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)
+        lidar.scan_noise(self.lidar_settings, self._lidar_generator, ranges)
         return ranges
 
     def derivative(self) -> np.ndarray:

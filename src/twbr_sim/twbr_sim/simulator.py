@@ -137,7 +137,7 @@ class Simulator:
         self._encoder_m = new_encoder_memory(self._encoder_c)
         self.friction = settings["traction.friction"]
         self.lidar_rate = settings["lidar.rate"]
-        self._lidar_s = lidar.settings_vector(settings)
+        self.lidar_settings = lidar.settings_vector(settings)  # lidar.SETTINGS_LAYOUT
         self._lidar_generator = new_generator(seed, lidar.LIDAR_STREAM)
         self.target_sensor_rate = settings["target_sensor.rate"]
         self._target_s = target_sensor.settings_vector(settings)
@@ -181,10 +181,10 @@ class Simulator:
         and dropouts included, REP 117's -inf / +inf outside its range."""
         s = self.state
         positions, velocities, radii = self.obstacle_arrays()
-        ranges = np.empty(int(self._lidar_s[lidar.LD_BEAMS]))
-        lidar.cast_scan(self._lidar_s, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
+        ranges = np.empty(int(self.lidar_settings[lidar.LD_BEAMS]))
+        lidar.cast_scan(self.lidar_settings, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
                         s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
-        lidar.scan_noise(self._lidar_s, self._lidar_generator, ranges)
+        lidar.scan_noise(self.lidar_settings, self._lidar_generator, ranges)
         return ranges
 
     def target_detection(self) -> tuple[float, float] | None:
