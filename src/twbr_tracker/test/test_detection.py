@@ -59,9 +59,12 @@ def test_a_wall_is_a_chain_of_discs_along_it():
     wall = [(x, 2.0, 0.1) for x in np.arange(-2.0, 2.01, 0.15)]
     discs = detected(scan_of(wall))
     assert len(discs) >= 8 and np.all(discs[:, DC_WALL] == 1.0)
-    assert np.all(np.abs(discs[:, DC_Y] - 1.95) < 0.15)
-    covered = np.sort(discs[:, DC_X])
-    assert covered[0] < -1.5 and covered[-1] > 1.5 and np.max(np.diff(covered)) < 0.6
+    # The chain covers the wall's face (y = 1.9) along its length, standing at most 7 cm out in front of it
+    # (centred on the wall, chain_depth 0: 28 cm): a passage beside a wall keeps its width.
+    face = np.stack([np.linspace(-1.5, 1.5, 61), np.full(61, 1.9)], axis=1)
+    inside = np.hypot(face[:, None, 0] - discs[None, :, DC_X], face[:, None, 1] - discs[None, :, DC_Y]) - discs[:, DC_RADIUS]
+    assert inside.min(axis=1).max() < 0.02
+    assert (discs[:, DC_Y] - discs[:, DC_RADIUS]).min() > 1.83
 
 
 def test_the_floor_a_leaning_scan_sweeps_is_no_obstacle():

@@ -36,10 +36,14 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("detection.max_disc_extent", 1.2, "a longer segment is a wall: a chain of discs", "m", 0.1, 10.0),
     ParamSpec("detection.min_radius", 0.05, "smallest disc reported", "m", 0.0, 5.0),
     ParamSpec("detection.chain_spacing", 0.4, "distance between the discs of a wall's chain", "m", 0.05, 5.0),
+    ParamSpec("detection.chain_depth", 2.0, "a chain disc's centre lies this many half-lengths of its stretch of"
+              " wall behind it (away from the scanner), its radius reaching every point of the stretch: the"
+              " deeper, the less the disc bulges in front of the wall (0: centred on the wall, bulging half its"
+              " length)", "", 0.0, 10.0),
 )
 
 SETTINGS_LAYOUT = Layout(("floor_margin", "gap", "gap_per_metre", "min_points", "max_disc_extent", "min_radius",
-                          "chain_spacing"))
+                          "chain_spacing", "chain_depth"))
 DS_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
 DS_GAP = SETTINGS_LAYOUT["gap"]
 DS_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
@@ -47,6 +51,7 @@ DS_MIN_POINTS = SETTINGS_LAYOUT["min_points"]
 DS_MAX_DISC_EXTENT = SETTINGS_LAYOUT["max_disc_extent"]
 DS_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
 DS_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
+DS_CHAIN_DEPTH = SETTINGS_LAYOUT["chain_depth"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 # One disc: centre [m], radius [m], whether it is part of a wall's chain (1) or a compact object (0), when
@@ -217,6 +222,19 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             if b <= a:
                 continue
             cx, cy = _centroid(points, a, b)
+            # behind the stretch along its normal, away from the scanner: a disc centred on the wall would
+            # stand half its length out in front of it and close a passage by that much on each side
+            ex = points[b - 1, 0] - points[a, 0]
+            ey = points[b - 1, 1] - points[a, 1]
+            length = math.hypot(ex, ey)
+            if length > 0.0:
+                nx = -ey / length
+                ny = ex / length
+                if nx * (cx - scanner_x) + ny * (cy - scanner_y) < 0.0:
+                    nx = -nx
+                    ny = -ny
+                cx += s[DS_CHAIN_DEPTH] * 0.5 * length * nx
+                cy += s[DS_CHAIN_DEPTH] * 0.5 * length * ny
             reach = 0.0
             for i in range(a, b):
                 reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
