@@ -133,6 +133,8 @@ from twbr_tracker.target import settings_vector as target_vector
 from twbr_tracker.tracker import K_NEXT_ID, N_COUNTERS, N_OBSTACLE_ROW, TRACKER_SPECS, output_rows, tracker_scan
 from twbr_tracker.tracks import N_TRACK, TS_MAX_TRACKS
 from twbr_tracker.tracks import settings_vector as track_vector
+from twbr_tracker.wall_memory import N_WALL, WM_MAX_DISCS
+from twbr_tracker.wall_memory import settings_vector as wall_vector
 
 WORLD_RATE = default_of(SIM_SPECS, "world_rate")  # [Hz] collisions and clearance are sampled at it
 PLANNER_RATE = default_of(PLANNER_NODE_SPECS, "rate")  # [Hz]
@@ -291,7 +293,7 @@ MEMORY_ARRAYS_LAYOUT = Layout((
     "loop", "control", "control_out", "planner_memory", "ring", "plan_out", "tally", "positions", "distances",
     "detected", "detected_at", "derivative", "reading", "odometry", "loads", "estimator_memory",
     "agent_state", "velocities", "tracks", "track_cov", "track_counters", "seen_positions", "seen_velocities",
-    "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov",
+    "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov", "walls",
 ))
 MA_LOOP = MEMORY_ARRAYS_LAYOUT["loop"]
 MA_CONTROL = MEMORY_ARRAYS_LAYOUT["control"]
@@ -321,6 +323,7 @@ MA_PLAN_POSITIONS = MEMORY_ARRAYS_LAYOUT["plan_positions"]
 MA_SEEN_DISTANCES = MEMORY_ARRAYS_LAYOUT["seen_distances"]
 MA_TARGET_MEMORY = MEMORY_ARRAYS_LAYOUT["target_memory"]
 MA_TARGET_COV = MEMORY_ARRAYS_LAYOUT["target_cov"]
+MA_WALLS = MEMORY_ARRAYS_LAYOUT["walls"]
 # What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
 # motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
 # v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
@@ -331,13 +334,14 @@ SENSOR_ARRAYS = ("imu_c", "imu_m", "generators", "encoder_c", "encoder_m", "esti
 # (target_sensor) likewise, the tracker's detection and tracking settings, and each robot's target filter
 # settings (its prior: the robot's own layout's target start).
 PERCEPTION_ARRAYS = ("lidar_s", "lidar_generators", "look_s", "look_generators", "detection_d", "tracking_k",
-                     "target_s")
+                     "walls_w", "target_s")
 
 
 @kernel
-def new_memories(n, run, n_obstacles, n_tracks, n_seen):
+def new_memories(n, run, n_obstacles, n_tracks, n_seen, n_walls):
     """Per-robot memories for n robots of a run, in MEMORY_ARRAYS_LAYOUT's order (the agents' states:
-    agents.AGENT_STATE_LAYOUT; n_tracks, n_seen: the tracker's table and output rows, 0 without LiDAR)."""
+    agents.AGENT_STATE_LAYOUT; n_tracks, n_seen, n_walls: the tracker's table, output rows and wall memory, 0
+    without LiDAR)."""
     return (
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
@@ -348,7 +352,7 @@ def new_memories(n, run, n_obstacles, n_tracks, n_seen):
         np.zeros((n, n_obstacles, N_AGENT_STATE)), np.zeros((n, n_obstacles, 2)),
         np.zeros((n, n_tracks, N_TRACK)), np.zeros((n, n_tracks, 4, 4)), np.zeros((n, N_COUNTERS)),
         np.zeros((n, n_seen, 2)), np.zeros((n, n_seen, 2)), np.zeros((n, n_seen)), np.zeros((n, n_seen, 2)),
-        np.zeros((n, n_seen)), np.zeros((n, N_TARGET_MEMORY)), np.zeros((n, 4, 4)),
+        np.zeros((n, n_seen)), np.zeros((n, N_TARGET_MEMORY)), np.zeros((n, 4, 4)), np.zeros((n, n_walls, N_WALL)),
     )
 
 
@@ -468,9 +472,10 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     seen_radii, plan_positions = memories[MA_SEEN_RADII], memories[MA_PLAN_POSITIONS]
     seen_distances = memories[MA_SEEN_DISTANCES]
     target_memory, target_cov = memories[MA_TARGET_MEMORY], memories[MA_TARGET_COV]
+    walls = memories[MA_WALLS]
     segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
     imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
-    lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s = perception
+    lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s = perception
     lidar_on = run[U_LIDAR] != 0.0
     looks = lidar_on and run[U_LOOK_PERIOD] > 0.0  # the planner follows the fused target
     # this call's scratch: a scan's ranges, the tracker's discs and output rows, a look, an estimate
@@ -571,8 +576,8 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             lidar.scan_noise(lidar_s, lidar_generators[j], ranges)
             for b in range(beams):
                 ranges[b] = np.float32(ranges[b])  # as a LaserScan carries them
-            count = tracker_scan(detection_d, tracking_k, tracks[j], track_cov[j], track_counters[j], t, ranges,
-                                 run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
+            count = tracker_scan(detection_d, tracking_k, walls_w, tracks[j], track_cov[j], walls[j], track_counters[j],
+                                 t, ranges, run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
                                  odom_x, odom_y, odom_yaw, odom_velocity, yaw_rate, states[j, S_TH],
                                  run[U_AXLE_HEIGHT], run[U_LIDAR_HEIGHT], discs, rows)
             for r in range(count):
@@ -703,7 +708,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lidar_s,
-                lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s, lanes, threads):
+                lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s, lanes, threads):
     """All robots' runs, sample by sample: every running robot's sample (_samples, a share of the robots per
     thread), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
@@ -724,11 +729,12 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     steps_per_control = int(run[U_STEPS_PER_CONTROL])
     lidar_on = run[U_LIDAR] != 0.0
     memories = new_memories(n, run, radii.shape[0], int(tracking_k[TS_MAX_TRACKS]) if lidar_on else 0,
-                            output_rows(tracking_k, int(lidar_s[lidar.LD_BEAMS])) if lidar_on else 0)
+                            output_rows(tracking_k, walls_w) if lidar_on else 0,
+                            int(walls_w[WM_MAX_DISCS]) if lidar_on else 0)
     loop, derivative, loads = memories[MA_LOOP], memories[MA_DERIVATIVE], memories[MA_LOADS]
     world = (segments, agents, waypoints, radii, profile)  # WORLD_ARRAYS
     sensors = (imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q)  # SENSOR_ARRAYS
-    perception = (lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, target_s)
+    perception = (lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s)
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
@@ -943,6 +949,6 @@ def run_batch(
         _run_robots(params, states, control_vector(control_cfg), planner_vector(planner_cfg), run, segments, draws,
                     agents, waypoints, radii, profile, results, traces, imu_c, imu_m, generators,
                     encoder_c, encoder_m, estimator_vector(control_cfg), lidar_s, lidar_generators,
-                    look_vector(sim_cfg), look_generators, detection_vector(tracker_cfg), tracking_k, target_s, lanes,
-                    get_num_threads())
+                    look_vector(sim_cfg), look_generators, detection_vector(tracker_cfg), tracking_k,
+                    wall_vector(tracker_cfg), target_s, lanes, get_num_threads())
     return BatchResult(results, traces if record else None, physics_rate)

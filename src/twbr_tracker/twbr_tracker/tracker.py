@@ -11,7 +11,7 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
-from twbr_tracker.detection import DC_RADIUS, DC_WALL, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect
+from twbr_tracker.detection import DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
@@ -30,20 +30,24 @@ from twbr_tracker.tracks import (
     track_step,
 )
 from twbr_tracker.tracks import settings_vector as track_vector
+from twbr_tracker.wall_memory import N_WALL, WALL_MEMORY_SPECS, WL_RADIUS, WL_X, WL_Y, WM_MAX_DISCS, remember_walls
+from twbr_tracker.wall_memory import settings_vector as wall_vector
 
 GEOMETRY_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("axle_height", 0.10, "the axle above the floor (the wheel radius)", "m", 0.0, 5.0),
     ParamSpec("lidar_height", 0.25, "the scanner above the axle, along the body's axis", "m", 0.0, 5.0),
 )
-TRACKER_SPECS: tuple[ParamSpec, ...] = (*GEOMETRY_SPECS, *DETECTION_SPECS, *TRACK_SPECS)
+TRACKER_SPECS: tuple[ParamSpec, ...] = (*GEOMETRY_SPECS, *DETECTION_SPECS, *TRACK_SPECS, *WALL_MEMORY_SPECS)
 WALL_IDS = 1_000_000  # a wall disc's id: this plus its place in the chain (tracks count up from 1)
 # The tracker's output, one row per obstacle, as the planner reads an ObstacleArray (twbr_common.cdr's rows):
 OBSTACLE_ROW = Layout(("id", "x", "y", "vx", "vy", "radius"))  # [m, m/s] in odom
 N_OBSTACLE_ROW = len(OBSTACLE_ROW)
-# What a tracker carries between scans besides its tracks: their count and the next track's id.
+# What a tracker carries between scans besides its tracks and remembered walls: the tracks' count, the
+# next track's id and the remembered wall discs' count.
 K_COUNT = 0
 K_NEXT_ID = 1
-N_COUNTERS = 2
+K_WALLS = 2
+N_COUNTERS = 3
 
 
 @dataclass(frozen=True)
@@ -57,12 +61,12 @@ class TrackedObstacle:
 
 
 @kernel
-def tracker_scan(d, k, tracks, cov, counters, t, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
-                 yaw_rate, pitch, axle_height, lidar_height, discs, out):
+def tracker_scan(d, k, w, tracks, cov, walls, counters, t, ranges, angle_min, angle_increment, time_increment, x, y,
+                 yaw, speed, yaw_rate, pitch, axle_height, lidar_height, discs, out):
     """The scan stamped t [s] (its first beam), begun at the pose (x, y, yaw) [m, rad] moving at speed [m/s]
     and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now into out's rows (OBSTACLE_ROW: the
-    confirmed live tracks, static ones still, then the wall's chain of discs); returns their count.
-    `discs` is scratch of at least one row per beam."""
+    confirmed live tracks, static ones still, then the walls' discs, seen now or remembered:
+    wall_memory); returns their count. `discs` is scratch of at least one row per beam."""
     m = detect(d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                axle_height, lidar_height, discs)
     n = int(counters[K_COUNT])
@@ -70,6 +74,11 @@ def tracker_scan(d, k, tracks, cov, counters, t, ranges, angle_min, angle_increm
     n, next_id = track_step(k, tracks, cov, n, int(counters[K_NEXT_ID]), t, discs, m)
     counters[K_COUNT] = n
     counters[K_NEXT_ID] = next_id
+    sx = x + lidar_height * math.sin(pitch) * math.cos(yaw)  # the scanner, as detect places it
+    sy = y + lidar_height * math.sin(pitch) * math.sin(yaw)
+    kept = remember_walls(w, walls, int(counters[K_WALLS]), t, discs, m, ranges, angle_min, angle_increment, sx, sy,
+                          yaw)
+    counters[K_WALLS] = kept
     rows = 0
     for i in range(n):
         if tracks[i, TR_CONFIRMED] != 0.0 and tracks[i, TR_LOST] == 0.0 and rows < out.shape[0]:
@@ -80,24 +89,27 @@ def tracker_scan(d, k, tracks, cov, counters, t, ranges, angle_min, angle_increm
             out[rows, 4] = tracks[i, TR_VY] * tracks[i, TR_MOVING]
             out[rows, 5] = tracks[i, TR_RADIUS]
             rows += 1
-    walls = 0
-    for i in range(m):
-        if discs[i, DC_WALL] != 0.0 and rows < out.shape[0]:
-            out[rows, 0] = WALL_IDS + walls
-            out[rows, 1] = discs[i, DC_X]
-            out[rows, 2] = discs[i, DC_Y]
+    for i in range(kept):
+        if rows < out.shape[0]:
+            out[rows, 0] = WALL_IDS + i
+            out[rows, 1] = walls[i, WL_X]
+            out[rows, 2] = walls[i, WL_Y]
             out[rows, 3] = 0.0
             out[rows, 4] = 0.0
-            out[rows, 5] = discs[i, DC_RADIUS]
+            out[rows, 5] = walls[i, WL_RADIUS]
             rows += 1
-            walls += 1
     return rows
 
 
 @kernel
-def output_rows(k, beams):
-    """Rows enough for any scan's output: every track, and a wall disc per beam."""
-    return int(k[TS_MAX_TRACKS]) + beams
+def output_rows(k, w):
+    """Rows enough for any scan's output: every track and every remembered wall disc."""
+    return int(k[TS_MAX_TRACKS]) + int(w[WM_MAX_DISCS])
+
+
+def new_walls(w: np.ndarray) -> np.ndarray:
+    """An empty wall memory (WALL_LAYOUT rows)."""
+    return np.zeros((int(w[WM_MAX_DISCS]), N_WALL))
 
 
 class Tracker:
@@ -105,7 +117,9 @@ class Tracker:
         self.cfg = dict(cfg)
         self._d = detection_vector(cfg)
         self._k = track_vector(cfg)
+        self._w = wall_vector(cfg)
         self.tracks, self.cov = new_tracks(self._k)
+        self.walls = new_walls(self._w)
         self.counters = np.zeros(N_COUNTERS)
         self.reset()
 
@@ -118,6 +132,7 @@ class Tracker:
         self.tracks[:] = 0.0
         self.cov[:] = 0.0
         self.counters[K_COUNT] = 0
+        self.counters[K_WALLS] = 0
         self.counters[K_NEXT_ID] = max(self.counters[K_NEXT_ID], 1)
 
     def step(self, t: float, ranges: np.ndarray, angle_min: float, angle_increment: float, time_increment: float,
@@ -126,10 +141,10 @@ class Tracker:
         [m/s] and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now."""
         ranges = np.ascontiguousarray(ranges, dtype=np.float64)
         discs = np.empty((len(ranges), N_DISC))
-        out = np.empty((output_rows(self._k, len(ranges)), N_OBSTACLE_ROW))
-        rows = tracker_scan(self._d, self._k, self.tracks, self.cov, self.counters, t, ranges, angle_min,
-                            angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch, self.cfg["axle_height"],
-                            self.cfg["lidar_height"], discs, out)
+        out = np.empty((output_rows(self._k, self._w), N_OBSTACLE_ROW))
+        rows = tracker_scan(self._d, self._k, self._w, self.tracks, self.cov, self.walls, self.counters, t, ranges,
+                            angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
+                            self.cfg["axle_height"], self.cfg["lidar_height"], discs, out)
         return [TrackedObstacle(int(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
                 for r in out[:rows]]
 
