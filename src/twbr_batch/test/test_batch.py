@@ -202,7 +202,8 @@ def test_realistic_sensors_and_either_controller_run_the_same_in_the_batch(name,
                                                                    trace.traction.slip_events)
 
 
-@pytest.mark.parametrize("name", ["suite/head_on", "suite/crowd_crossing", "suite/target_behind_wall"])
+@pytest.mark.parametrize("name", ["suite/head_on", pytest.param("suite/crowd_crossing", marks=pytest.mark.long),
+                                  pytest.param("suite/target_behind_wall", marks=pytest.mark.long)])
 def test_on_the_lidar_the_batch_runs_the_scan_tracker_and_target_filter_of_the_scalar_cores(name):
     # The scan cast and its noise, the tracker's detection, association and filters and the fused target,
     # in each robot of the batch, against the classes tracker_node and sim_node call (LaserScan's float32

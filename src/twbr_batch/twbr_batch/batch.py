@@ -121,9 +121,9 @@ from twbr_tracker.target import (
     MISSION_PRIOR_STD,
     N_ESTIMATE,
     TARGET_SPECS,
-    TF_PRIOR_STD,
-    TF_PRIOR_X,
-    TF_PRIOR_Y,
+    TG_PRIOR_STD,
+    TG_PRIOR_X,
+    TG_PRIOR_Y,
     target_begin,
     target_estimate,
     target_measure,
@@ -930,8 +930,8 @@ def run_batch(
     look_rate = sim_cfg["target_sensor.rate"] if lidar_on else 0.0
     target_s = np.tile(target_vector(tracker_cfg), (n, 1))
     if tgt is not None:  # each robot's tracker told where its layout's target starts
-        target_s[:, [TF_PRIOR_X, TF_PRIOR_Y]] = [(s.target.x, s.target.y) for s in layouts]
-        target_s[:, TF_PRIOR_STD] = MISSION_PRIOR_STD
+        target_s[:, [TG_PRIOR_X, TG_PRIOR_Y]] = [(s.target.x, s.target.y) for s in layouts]
+        target_s[:, TG_PRIOR_STD] = MISSION_PRIOR_STD
     run[U_LIDAR] = 1.0 if lidar_on else 0.0
     run[U_SCAN_PERIOD] = 1.0 / sim_cfg["lidar.rate"] if sim_cfg["lidar.rate"] > 0.0 else 0.0
     run[U_LOOK_PERIOD] = 1.0 / look_rate if look_rate > 0.0 else 0.0

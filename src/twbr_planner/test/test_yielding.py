@@ -63,7 +63,7 @@ def test_it_waits_at_a_passage_a_cart_is_coming_through():
 
     seeds = list(range(1, 61))
     path = find_scenario("suite/narrow_passage")
-    with_look_ahead = run_rows(path, "robust", {"method": "robust"}, seeds)
-    without = run_rows(path, "no yielding", {"method": "robust", "yield_horizon": 0.0}, seeds)
+    with_look_ahead = run_rows(path, "robust", {"method": "robust", "perception": "truth"}, seeds)
+    without = run_rows(path, "no yielding", {"method": "robust", "yield_horizon": 0.0, "perception": "truth"}, seeds)
     collided = [sum(r.collisions > 0 for r in rows) for rows in (with_look_ahead, without)]
     assert collided[1] >= 12 and collided[0] <= 0.5 * collided[1]

@@ -56,21 +56,21 @@ MISSION_PRIOR_STD = 0.1
 
 SETTINGS_LAYOUT = Layout(("sensor_height", "range_noise_std", "bearing_noise_std", "acceleration_noise",
                           "initial_speed_std", "max_extrapolation", "prior_x", "prior_y", "prior_std"))
-TF_SENSOR_HEIGHT = SETTINGS_LAYOUT["sensor_height"]
-TF_RANGE_NOISE = SETTINGS_LAYOUT["range_noise_std"]
-TF_BEARING_NOISE = SETTINGS_LAYOUT["bearing_noise_std"]
-TF_ACCELERATION_NOISE = SETTINGS_LAYOUT["acceleration_noise"]
-TF_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
-TF_MAX_EXTRAPOLATION = SETTINGS_LAYOUT["max_extrapolation"]
-TF_PRIOR_X = SETTINGS_LAYOUT["prior_x"]
-TF_PRIOR_Y = SETTINGS_LAYOUT["prior_y"]
-TF_PRIOR_STD = SETTINGS_LAYOUT["prior_std"]
+TG_SENSOR_HEIGHT = SETTINGS_LAYOUT["sensor_height"]
+TG_RANGE_NOISE = SETTINGS_LAYOUT["range_noise_std"]
+TG_BEARING_NOISE = SETTINGS_LAYOUT["bearing_noise_std"]
+TG_ACCELERATION_NOISE = SETTINGS_LAYOUT["acceleration_noise"]
+TG_INITIAL_SPEED_STD = SETTINGS_LAYOUT["initial_speed_std"]
+TG_MAX_EXTRAPOLATION = SETTINGS_LAYOUT["max_extrapolation"]
+TG_PRIOR_X = SETTINGS_LAYOUT["prior_x"]
+TG_PRIOR_Y = SETTINGS_LAYOUT["prior_y"]
+TG_PRIOR_STD = SETTINGS_LAYOUT["prior_std"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 # The filter's memory: a track's columns (tracks.TRACK_LAYOUT: x, y, vx, vy at TR_T), then the stamp of
 # the last measurement and the first instant the prior was asked at (NaN: none yet).
-TF_SEEN = N_TRACK
-TF_PRIOR_FROM = N_TRACK + 1
+TG_SEEN = N_TRACK
+TG_PRIOR_FROM = N_TRACK + 1
 N_MEMORY = N_TRACK + 2
 # An estimate: position [m], velocity [m/s], the position's variance [m²] (the larger axis), the time since
 # the last measurement [s] (inf: the prior only).
@@ -88,19 +88,19 @@ def target_begin(memory, cov):
     """Nothing measured yet, the prior not yet asked for."""
     memory[:] = 0.0
     cov[:, :] = 0.0
-    memory[TF_SEEN] = math.nan
-    memory[TF_PRIOR_FROM] = math.nan
+    memory[TG_SEEN] = math.nan
+    memory[TG_PRIOR_FROM] = math.nan
 
 
 @kernel
 def target_measure(s, memory, cov, t, distance, bearing, x, y, yaw, pitch):
     """A measurement at t [s]: the target at `distance` [m] and `bearing` [rad] from the sensor on the robot
     at (x, y, yaw, pitch) [m, rad]."""
-    lean = s[TF_SENSOR_HEIGHT] * math.sin(pitch)
+    lean = s[TG_SENSOR_HEIGHT] * math.sin(pitch)
     zx = x + lean * math.cos(yaw) + distance * math.cos(yaw + bearing)
     zy = y + lean * math.sin(yaw) + distance * math.sin(yaw + bearing)
-    variance = max(s[TF_RANGE_NOISE], distance * s[TF_BEARING_NOISE]) ** 2
-    if math.isnan(memory[TF_SEEN]):  # the first: it replaces the prior outright
+    variance = max(s[TG_RANGE_NOISE], distance * s[TG_BEARING_NOISE]) ** 2
+    if math.isnan(memory[TG_SEEN]):  # the first: it replaces the prior outright
         memory[:N_TRACK] = 0.0
         memory[TR_X] = zx
         memory[TR_Y] = zy
@@ -108,19 +108,19 @@ def target_measure(s, memory, cov, t, distance, bearing, x, y, yaw, pitch):
         cov[:, :] = 0.0
         cov[0, 0] = variance
         cov[1, 1] = variance
-        cov[2, 2] = s[TF_INITIAL_SPEED_STD] ** 2
-        cov[3, 3] = s[TF_INITIAL_SPEED_STD] ** 2
+        cov[2, 2] = s[TG_INITIAL_SPEED_STD] ** 2
+        cov[3, 3] = s[TG_INITIAL_SPEED_STD] ** 2
     else:
         _predict(s, memory, cov, t)
         kalman_update(memory, cov, zx, zy, variance)
-    memory[TF_SEEN] = t
+    memory[TG_SEEN] = t
 
 
 @kernel
 def _predict(s, memory, cov, t):
     """To t, along the velocity only up to max_extrapolation after the last measurement."""
-    q = s[TF_ACCELERATION_NOISE]
-    moving_until = memory[TF_SEEN] + s[TF_MAX_EXTRAPOLATION]
+    q = s[TG_ACCELERATION_NOISE]
+    moving_until = memory[TG_SEEN] + s[TG_MAX_EXTRAPOLATION]
     if memory[TR_T] < moving_until < t:
         kalman_predict(memory, cov, moving_until, q)
     if t > moving_until:  # beyond it: the position stays, its uncertainty still grows
@@ -141,28 +141,28 @@ def target_estimate(s, memory, cov, t, out):
     measurement: the prior, standing where it was given, its variance growing from the first instant asked
     as the filter's own would (position, and a speed of initial_speed_std, uncorrelated). False: unknown
     (no measurement and no prior)."""
-    if math.isnan(memory[TF_SEEN]):
-        if s[TF_PRIOR_STD] <= 0.0:
+    if math.isnan(memory[TG_SEEN]):
+        if s[TG_PRIOR_STD] <= 0.0:
             return False
-        if math.isnan(memory[TF_PRIOR_FROM]):
-            memory[TF_PRIOR_FROM] = t
-        dt = t - memory[TF_PRIOR_FROM]
-        out[0] = s[TF_PRIOR_X]
-        out[1] = s[TF_PRIOR_Y]
+        if math.isnan(memory[TG_PRIOR_FROM]):
+            memory[TG_PRIOR_FROM] = t
+        dt = t - memory[TG_PRIOR_FROM]
+        out[0] = s[TG_PRIOR_X]
+        out[1] = s[TG_PRIOR_Y]
         out[2] = 0.0
         out[3] = 0.0
-        out[4] = (s[TF_PRIOR_STD] ** 2 + (s[TF_INITIAL_SPEED_STD] * dt) ** 2
-                  + s[TF_ACCELERATION_NOISE] * dt ** 3 / 3.0)
+        out[4] = (s[TG_PRIOR_STD] ** 2 + (s[TG_INITIAL_SPEED_STD] * dt) ** 2
+                  + s[TG_ACCELERATION_NOISE] * dt ** 3 / 3.0)
         out[5] = math.inf
         return True
     _predict(s, memory, cov, t)
-    stopped = t > memory[TF_SEEN] + s[TF_MAX_EXTRAPOLATION]
+    stopped = t > memory[TG_SEEN] + s[TG_MAX_EXTRAPOLATION]
     out[0] = memory[TR_X]
     out[1] = memory[TR_Y]
     out[2] = 0.0 if stopped else memory[TR_VX]
     out[3] = 0.0 if stopped else memory[TR_VY]
     out[4] = max(cov[0, 0], cov[1, 1])
-    out[5] = t - memory[TF_SEEN]
+    out[5] = t - memory[TG_SEEN]
     return True
 
 
