@@ -212,11 +212,10 @@ class LidarPerception:
         if self._scan_due.due(t):
             s = sim.lidar_settings
             ranges = sim.scan().astype(np.float32).astype(np.float64)
-            listed = self.tracker.step(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
+            self.rows = self.tracker.step_rows(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
                                        float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
                                        float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X], odom[J_Y],
-                                       odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
-            self.rows = np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed], dtype=float).reshape(-1, 6)
+                                            odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
             self.stamp = t
             monitor.obstacles(t, self.rows)
         if self._look_due is not None and sim.world is not None and self._look_due.due(t):
@@ -242,9 +241,4 @@ class LidarPerception:
         """The last scan's obstacles moved along their velocities to t, as planner_node moves them."""
         from twbr_planner.apf import Obstacles
 
-        if not len(self.rows):
-            return Obstacles.empty()
-        age = max(0.0, t - self.stamp)
-        velocities = np.ascontiguousarray(self.rows[:, 3:5])
-        return Obstacles(self.rows[:, 1:3] + velocities * age, self.rows[:, 5].copy(), self.rows[:, 0].astype(int),
-                         velocities)
+        return Obstacles.from_rows(self.rows, t - self.stamp)

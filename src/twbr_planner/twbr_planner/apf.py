@@ -187,6 +187,16 @@ class Obstacles:
         return Obstacles(np.empty((0, 2)), np.empty(0), np.empty(0, dtype=int), np.empty((0, 2)))
 
     @staticmethod
+    def from_rows(rows: np.ndarray, age: float) -> Obstacles:
+        """From an obstacle list's rows (id, x, y, vx, vy, radius: ObstacleArray's order), each moved along
+        its velocity by age [s] (the list was made that long ago; a negative age counts as 0)."""
+        if not len(rows):
+            return Obstacles.empty()
+        velocities = np.ascontiguousarray(rows[:, 3:5])
+        return Obstacles(rows[:, 1:3] + velocities * max(0.0, age), rows[:, 5].copy(), rows[:, 0].astype(int),
+                         velocities)
+
+    @staticmethod
     def of(items: list[tuple[float, ...]]) -> Obstacles:
         """From (id, x, y, radius) or (id, x, y, radius, vx, vy) tuples (without a velocity: at rest)."""
         if not items:

@@ -224,11 +224,7 @@ class PlannerNode(Node):
     def _obstacles_at(self, stamp: float) -> Obstacles:
         """The obstacle list moved along each obstacle's velocity to `stamp` (it was published earlier)."""
         t0, rows = self._obstacles
-        if not len(rows):
-            return Obstacles.empty()
-        age = max(0.0, stamp - t0)
-        velocities = np.ascontiguousarray(rows[:, 3:5])
-        return Obstacles(rows[:, 1:3] + velocities * age, rows[:, 5].copy(), rows[:, 0].astype(int), velocities)
+        return Obstacles.from_rows(rows, stamp - t0)
 
     def _publish(self, odom: OdomPose, out: PlannerOutput, planning_time: float = 0.0) -> None:
         twist = Twist()

@@ -161,21 +161,17 @@ DRIVERS = ("sim", "mujoco")
 ROBOT_FILES = {"sim": ("sim.yaml", "sim_node"), "mujoco": ("mujoco_driver.yaml", "mujoco_driver")}
 
 
-def lidar_settings(driver: str, config: Path) -> dict[str, float]:
-    """The robot's LiDAR parameters as its parameter file sets them (`lidar.rate` [Hz], 0: no scan;
-    `lidar.range_max` [m]; ...), the spec's default where it is silent."""
+def sensor_settings(driver: str, config: Path) -> dict[str, float]:
+    """The robot's sensors as its parameter file sets them, the spec's default where it is silent: the
+    LiDAR's (`lidar.rate` [Hz], 0: no scan; `lidar.range_max` [m]; ...) and the target detector's
+    (`target_sensor.rate` [Hz], 0: the robot has none, as mujoco_driver)."""
     file, node = ROBOT_FILES[driver]
     given = node_parameters(config / file, node)
-    return {spec.name: float(given.get(spec.name, spec.default)) for spec in LIDAR_SPECS
-            if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)}
-
-
-def target_detector_rate(driver: str, config: Path) -> float:
-    """The robot's target detector's rate [Hz] as its parameter file sets it (0: it has none)."""
-    if driver != "sim":
-        return 0.0
-    given = node_parameters(config / "sim.yaml", "sim_node")
-    return float(given.get("target_sensor.rate", default_of(TARGET_SENSOR_SPECS, "target_sensor.rate")))
+    specs = (*LIDAR_SPECS, *TARGET_SENSOR_SPECS) if driver == "sim" else LIDAR_SPECS
+    settings = {spec.name: float(given.get(spec.name, spec.default)) for spec in specs
+                if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool)}
+    settings.setdefault("target_sensor.rate", 0.0)
+    return settings
 
 
 def robot_node(driver: str, config: Path, sensors: str, video: Path | None = None) -> tuple[str, str, list[str]]:
@@ -201,7 +197,8 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
     """The processes of a run, in start order (the simulator last: it waits for its subscribers).
     `perception` lidar: tracker_node between the robot's scan and the planner (run_perception)."""
     lidar = perception == "lidar"
-    rate = lidar_settings(driver, config)["lidar.rate"]
+    robot_sensors = sensor_settings(driver, config)
+    rate = robot_sensors["lidar.rate"]
     if lidar and rate <= 0.0:
         name, _node = ROBOT_FILES[driver]
         raise ConfigError(f"--perception lidar: the robot has no LiDAR (lidar.rate = {rate:g} in {name}); set"
@@ -226,7 +223,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         if lidar:  # its obstacles come once a scan: a plan at a scan's instant waits for that scan's
             overrides += ["-p", f"obstacles_period:={1.0 / rate!r}"]
             tracker_args = [*params_files(config, "tracker.yaml"), "-r", f"target:={TRACKED_TARGET}"]
-            detector_rate = target_detector_rate(driver, config)
+            detector_rate = robot_sensors["target_sensor.rate"]
             if detector_rate > 0.0:  # the planner follows what the tracker makes of the detector's looks
                 start = vary(scenario, seed).target
                 tracker_args += ["-p", f"target.prior_x:={float(start.x)!r}", "-p", f"target.prior_y:={float(start.y)!r}",
@@ -585,7 +582,7 @@ def analyse(run_dir: Path, bag_dir: Path, scenario: Scenario, seed: int, wall: f
     metrics.foreign_publishers = list(foreign or [])
     metrics.perception = perception
     if perception == "lidar":
-        lidar = lidar_settings(opts.driver, config_dir())
+        lidar = sensor_settings(opts.driver, config_dir())
         metrics.tracking = tracking_metrics(series, lidar["lidar.range_max"], 1.0 / lidar["lidar.rate"])
         latency = TRACKER_LATENCY.search(tracker_log)
         if metrics.tracking is not None and latency:

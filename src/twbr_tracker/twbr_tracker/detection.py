@@ -265,8 +265,7 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
             break
     n = scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                     axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams, times)
-    scanner_x = x + height * math.sin(pitch) * math.cos(yaw)
-    scanner_y = y + height * math.sin(pitch) * math.sin(yaw)
+    scanner_x, scanner_y, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, height * math.sin(pitch))
     starts = np.empty(n_beams + 1, dtype=np.int64)
     count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)
     return fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, ranges, first, beams)

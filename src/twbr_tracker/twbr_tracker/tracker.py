@@ -11,6 +11,7 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
+from twbr_sim.lidar import scanner_at
 from twbr_tracker.detection import DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
@@ -74,8 +75,7 @@ def tracker_scan(d, k, w, tracks, cov, walls, counters, t, ranges, angle_min, an
     n, next_id = track_step(k, tracks, cov, n, int(counters[K_NEXT_ID]), t, discs, m)
     counters[K_COUNT] = n
     counters[K_NEXT_ID] = next_id
-    sx = x + lidar_height * math.sin(pitch) * math.cos(yaw)  # the scanner, as detect places it
-    sy = y + lidar_height * math.sin(pitch) * math.sin(yaw)
+    sx, sy, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, lidar_height * math.sin(pitch))  # as detect's
     kept = remember_walls(w, walls, int(counters[K_WALLS]), t, discs, m, ranges, angle_min, angle_increment, sx, sy,
                           yaw)
     counters[K_WALLS] = kept
@@ -139,14 +139,21 @@ class Tracker:
              x: float, y: float, yaw: float, speed: float, yaw_rate: float, pitch: float) -> list[TrackedObstacle]:
         """The scan stamped t [s] (its first beam), begun at the pose (x, y, yaw) [m, rad] moving at speed
         [m/s] and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now."""
+        return [TrackedObstacle(int(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
+                for r in self.step_rows(t, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
+                                        yaw_rate, pitch)]
+
+    def step_rows(self, t: float, ranges: np.ndarray, angle_min: float, angle_increment: float,
+                  time_increment: float, x: float, y: float, yaw: float, speed: float, yaw_rate: float,
+                  pitch: float) -> np.ndarray:
+        """`step`'s obstacles as the kernel leaves them: rows of OBSTACLE_ROW."""
         ranges = np.ascontiguousarray(ranges, dtype=np.float64)
         discs = np.empty((len(ranges), N_DISC))
         out = np.empty((output_rows(self._k, self._w), N_OBSTACLE_ROW))
         rows = tracker_scan(self._d, self._k, self._w, self.tracks, self.cov, self.walls, self.counters, t, ranges,
                             angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                             self.cfg["axle_height"], self.cfg["lidar_height"], discs, out)
-        return [TrackedObstacle(int(r[0]), float(r[1]), float(r[2]), float(r[3]), float(r[4]), float(r[5]))
-                for r in out[:rows]]
+        return out[:rows]
 
     def warm_up(self) -> None:
         """Load the compiled kernels now, on a copy, so the first scan is answered on time."""
