@@ -7,8 +7,28 @@ import math
 import numpy as np
 import pytest
 
+from twbr_common.jit import kernel
 from twbr_common.params import defaults
-from twbr_sim.lidar import LIDAR_SPECS, LIDAR_STREAM, cast_scan, scan_noise, settings_vector
+from twbr_sim.lidar import (
+    BEAM_DOWN,
+    BEAM_DT,
+    BEAM_DX,
+    BEAM_DY,
+    BEAM_HORIZONTAL,
+    BEAM_SX,
+    BEAM_SY,
+    LD_HEIGHT,
+    LD_RANGE_MAX,
+    LD_RANGE_MIN,
+    LIDAR_SPECS,
+    LIDAR_STREAM,
+    N_BEAM,
+    beam_geometry,
+    cast_scan,
+    disc_hit,
+    scan_noise,
+    settings_vector,
+)
 from twbr_sim.noise import new_generator
 
 AXLE = 0.10  # [m] the wheel radius
@@ -103,3 +123,56 @@ def test_noise_and_dropouts_are_the_device_s_and_the_seed_s():
     scan_noise(s, new_generator(7, LIDAR_STREAM), a)
     scan_noise(s, new_generator(7, LIDAR_STREAM), b)
     assert np.array_equal(a, b)
+
+
+@kernel
+def cast_scan_every_beam(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velocities, radii, ranges):
+    """The cast as first written: every beam against the floor and every disc (cast_scan's oracle)."""
+    beams = int(s[2])
+    sin_th = math.sin(pitch)
+    cos_th = math.cos(pitch)
+    z = axle_height + s[LD_HEIGHT] * cos_th
+    geometry = np.empty((beams, N_BEAM))
+    for i in range(beams):
+        beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
+        best = math.inf
+        if geometry[i, BEAM_DOWN] > 0.0:
+            best = z / geometry[i, BEAM_DOWN]
+        horizontal = geometry[i, BEAM_HORIZONTAL]
+        if horizontal > 0.0:
+            dt = geometry[i, BEAM_DT]
+            for o in range(radii.shape[0]):
+                t = disc_hit(geometry[i, BEAM_SX], geometry[i, BEAM_SY], geometry[i, BEAM_DX], geometry[i, BEAM_DY],
+                             positions[o, 0] + velocities[o, 0] * dt, positions[o, 1] + velocities[o, 1] * dt,
+                             radii[o]) / horizontal
+                if t < best:
+                    best = t
+        ranges[i] = -math.inf if best < s[LD_RANGE_MIN] else (math.inf if best > s[LD_RANGE_MAX] else best)
+
+
+@pytest.mark.parametrize("device", [{}, {"lidar.beams": 720, "lidar.angle_increment": math.radians(0.5)},
+                                    {"lidar.beams": 100, "lidar.angle_increment": math.radians(3.6), "lidar.rate": 40.0,
+                                     "lidar.angle_min": 0.3},
+                                    {"lidar.beams": 1000, "lidar.angle_increment": math.radians(1.0), "lidar.rate": 2.0},
+                                    {"lidar.beams": 90, "lidar.angle_min": -math.pi / 4, "lidar.range_max": 4.0}])
+def test_casting_each_disc_on_its_beams_only_returns_every_beams_range_bit_for_bit(device):
+    """The cast skips the beams a disc cannot meet: on random states, crowds, leans, turns and devices
+    (several turns per scan, a sector, a short range) it returns what casting every beam returns."""
+    s = settings(**device)
+    rng = np.random.default_rng(36)
+    for trial in range(150):
+        n = int(rng.integers(0, 40))
+        positions = rng.uniform(-14.0, 14.0, (n, 2))
+        velocities = rng.uniform(-3.0, 3.0, (n, 2)) * (trial % 3 != 0)
+        radii = rng.uniform(0.05, 2.5, n)
+        x, y = rng.uniform(-3.0, 3.0, 2)
+        yaw = rng.uniform(-60.0, 60.0)
+        pitch = rng.choice([0.0, rng.uniform(-0.05, 0.05), rng.uniform(-0.6, 0.6), rng.uniform(-3.1, 3.1)])
+        speed = rng.uniform(-2.5, 2.5)
+        yaw_rate = rng.choice([0.0, rng.uniform(-6.0, 6.0), 1e-13 * rng.uniform(-1.0, 1.0), rng.uniform(-400.0, 400.0)])
+        args = (s, x, y, yaw, pitch, speed, yaw_rate, AXLE, positions, velocities, radii)
+        fast = np.empty(int(s[2]))
+        every = np.empty(int(s[2]))
+        cast_scan(*args, fast)
+        cast_scan_every_beam(*args, every)
+        assert np.array_equal(fast, every), (trial, np.flatnonzero(fast != every))

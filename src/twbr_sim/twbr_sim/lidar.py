@@ -77,6 +77,19 @@ def settings_vector(cfg: dict) -> np.ndarray:
     return s
 
 
+# A beam's geometry in one scan (beam_geometry): the scanner at its instant, its direction, its shares.
+BEAM_LAYOUT = Layout(("sx", "sy", "dx", "dy", "horizontal", "down", "dt"))
+BEAM_SX = BEAM_LAYOUT["sx"]
+BEAM_SY = BEAM_LAYOUT["sy"]
+BEAM_DX = BEAM_LAYOUT["dx"]
+BEAM_DY = BEAM_LAYOUT["dy"]
+BEAM_HORIZONTAL = BEAM_LAYOUT["horizontal"]
+BEAM_DOWN = BEAM_LAYOUT["down"]
+BEAM_DT = BEAM_LAYOUT["dt"]
+N_BEAM = len(BEAM_LAYOUT)
+BEAM_MARGIN = 1e-9  # [rad] added to every angular window, beyond its beam of margin each side
+
+
 @inline_kernel
 def scanner_at(x, y, yaw, speed, yaw_rate, dt, lean):
     """The scanner dt [s] into a scan begun at the pose (x, y, yaw) [m, rad], the robot driving at speed
@@ -110,45 +123,124 @@ def disc_hit(ox, oy, dx, dy, cx, cy, radius):
 
 
 @kernel
+def beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry):
+    """Beam i of a scan begun at (x, y, yaw) [m, rad] moving at (speed, yaw_rate), pitched by (sin_th, cos_th):
+    into geometry[i] (BEAM_*) the scanner at the beam's instant [m], its horizontal unit direction, its
+    horizontal share (1 level, less tipped), the share pointing down, and the instant [s after the first]."""
+    dt = i * s[LD_TIME_INCREMENT]
+    sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, s[LD_HEIGHT] * sin_th)
+    bearing = s[LD_ANGLE_MIN] + i * s[LD_ANGLE_INCREMENT]
+    ca = math.cos(bearing)
+    sa = math.sin(bearing)
+    # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
+    fwd = ca * cos_th
+    horizontal = math.sqrt(fwd * fwd + sa * sa)
+    geometry[i, BEAM_SX] = sx
+    geometry[i, BEAM_SY] = sy
+    geometry[i, BEAM_HORIZONTAL] = horizontal
+    geometry[i, BEAM_DOWN] = ca * sin_th
+    geometry[i, BEAM_DT] = dt
+    if horizontal > 0.0:
+        c = math.cos(heading)
+        sn = math.sin(heading)
+        geometry[i, BEAM_DX] = (fwd * c - sa * sn) / horizontal
+        geometry[i, BEAM_DY] = (fwd * sn + sa * c) / horizontal
+
+
+@kernel
+def beam_window(centre, half, base, step, beams, windows):
+    """The beams i whose angle base + i * step [rad] can lie within `half` of `centre` (mod 2 pi), one beam
+    of margin each side: into windows[k] as (first, last) index pairs; returns how many pairs."""
+    turn = 2.0 * math.pi
+    last = (beams - 1) * step
+    if half >= math.pi or step <= 0.0 or last + step > (windows.shape[0] - 2) * turn:  # every beam
+        windows[0, 0] = 0
+        windows[0, 1] = beams - 1
+        return 1
+    start = (centre - half - base) % turn - turn  # the window's first turn that can reach beam 0
+    count = 0
+    while start <= last + step and count < windows.shape[0]:
+        first = max(0, math.ceil(start / step) - 1)
+        end = min(beams - 1, math.floor((start + 2.0 * half) / step) + 1)
+        if first <= end:
+            windows[count, 0] = first
+            windows[count, 1] = end
+            count += 1
+        start += turn
+    return count
+
+
+@kernel
 def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velocities, radii, ranges):
     """Noise-free ranges [m] of one scan started at the state (x, y, yaw [rad], pitch [rad], forward speed
     [m/s], yaw rate [rad/s]) with the axle at `axle_height` [m] (the wheel radius), among discs at
-    `positions` [m] moving at `velocities` [m/s] with `radii` [m]; REP 117's -inf / +inf outside the range."""
+    `positions` [m] moving at `velocities` [m/s] with `radii` [m]; REP 117's -inf / +inf outside the range.
+
+    Each disc is cast only on the beams that can meet it: those pointing within asin((r + e) / d) of where
+    it was at the first beam, e bounding how far the scanner and the disc move in one turn and the pitch's
+    bend of the beams' bearings (cast_scan_every_beam: the same ranges, bit for bit, in the tests); the
+    floor only on the beams tipped down enough to meet it within range_max. Any other beam is +inf."""
     beams = int(s[LD_BEAMS])
     sin_th = math.sin(pitch)
     cos_th = math.cos(pitch)
-    height = s[LD_HEIGHT]
-    z = axle_height + height * cos_th  # the scanner above the floor
+    z = axle_height + s[LD_HEIGHT] * cos_th  # the scanner above the floor
+    range_max = s[LD_RANGE_MAX]
+    geometry = np.empty((beams, N_BEAM))
+    ready = np.zeros(beams, dtype=np.bool_)
+    windows = np.empty((4, 2), dtype=np.int64)
     for i in range(beams):
-        dt = i * s[LD_TIME_INCREMENT]
-        sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, height * sin_th)  # at this beam's instant
-        bearing = s[LD_ANGLE_MIN] + i * s[LD_ANGLE_INCREMENT]
-        ca = math.cos(bearing)
-        sa = math.sin(bearing)
-        # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
-        fwd = ca * cos_th
-        horizontal = math.sqrt(fwd * fwd + sa * sa)
-        best = math.inf
-        down = ca * sin_th
-        if down > 0.0:
-            best = z / down  # where the tipped plane meets the floor
-        if horizontal > 0.0:
-            c = math.cos(heading)
-            sn = math.sin(heading)
-            dx = (fwd * c - sa * sn) / horizontal
-            dy = (fwd * sn + sa * c) / horizontal
-            for o in range(radii.shape[0]):
-                hit = disc_hit(sx, sy, dx, dy, positions[o, 0] + velocities[o, 0] * dt,
-                               positions[o, 1] + velocities[o, 1] * dt, radii[o])
-                t = hit / horizontal  # along the beam, which climbs or sinks as it goes
-                if t < best:
-                    best = t
-        if best < s[LD_RANGE_MIN]:
+        ranges[i] = math.inf
+    step = s[LD_ANGLE_INCREMENT] + yaw_rate * s[LD_TIME_INCREMENT]  # beam to beam, turning with the body
+    # the floor: down = cos(bearing) sin_th >= z / range_max (every beam when the scanner is not above it)
+    if sin_th != 0.0:
+        q = z / (range_max * abs(sin_th)) if z > 0.0 else -1.0
+        if q <= 1.0:
+            half = math.acos(max(q, -1.0)) + BEAM_MARGIN
+            n = beam_window(0.0 if sin_th > 0.0 else math.pi, half, s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], beams,
+                            windows)
+            for k in range(n):
+                for i in range(windows[k, 0], windows[k, 1] + 1):
+                    if not ready[i]:
+                        beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
+                        ready[i] = True
+                    down = geometry[i, BEAM_DOWN]
+                    if down > 0.0:
+                        ranges[i] = min(ranges[i], z / down)  # where the tipped plane meets the floor
+    turn_time = (beams - 1) * s[LD_TIME_INCREMENT]
+    # how far the scanner strays from (x, y) in one turn: the drive, the lean, and the unicycle's rounding
+    drift = abs(speed) * turn_time + abs(s[LD_HEIGHT] * sin_th)
+    if yaw_rate != 0.0:
+        drift += abs(speed / yaw_rate) * 1e-15 * (3.0 + abs(yaw) + abs(yaw_rate) * turn_time)
+    # the pitch bends a beam's horizontal bearing off its nominal one by at most atan((1 - c) / (2 sqrt c))
+    bend = (1.0 - cos_th) / math.sqrt(cos_th) + BEAM_MARGIN if cos_th > 0.0 else math.pi
+    for o in range(radii.shape[0]):
+        fx = positions[o, 0] - x
+        fy = positions[o, 1] - y
+        distance = math.hypot(fx, fy)
+        reach = (radii[o] + drift + math.hypot(velocities[o, 0], velocities[o, 1]) * turn_time) * (1.0 + 1e-9) + 1e-9
+        if distance - reach > range_max:
+            continue  # every beam would meet it beyond range_max: +inf whatever else it meets
+        half = math.pi if distance <= reach else math.asin(reach / distance) + bend
+        n = beam_window(math.atan2(fy, fx), half, yaw + s[LD_ANGLE_MIN], step, beams, windows)
+        for k in range(n):
+            for i in range(windows[k, 0], windows[k, 1] + 1):
+                if not ready[i]:
+                    beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
+                    ready[i] = True
+                horizontal = geometry[i, BEAM_HORIZONTAL]
+                if horizontal > 0.0:
+                    dt = geometry[i, BEAM_DT]
+                    hit = disc_hit(geometry[i, BEAM_SX], geometry[i, BEAM_SY], geometry[i, BEAM_DX],
+                                   geometry[i, BEAM_DY], positions[o, 0] + velocities[o, 0] * dt,
+                                   positions[o, 1] + velocities[o, 1] * dt, radii[o])
+                    t = hit / horizontal  # along the beam, which climbs or sinks as it goes
+                    if t < ranges[i]:
+                        ranges[i] = t
+    for i in range(beams):
+        if ranges[i] < s[LD_RANGE_MIN]:
             ranges[i] = -math.inf
-        elif best > s[LD_RANGE_MAX]:
+        elif ranges[i] > range_max:
             ranges[i] = math.inf
-        else:
-            ranges[i] = best
 
 
 @kernel
