@@ -12,9 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import RUNNER, busy_loops
+from test_e2e_suite import assert_the_graph_took_the_batch_engines_path
 
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.metrics import series_from_messages
+from twbr_sim.scenario import load_scenario
+from twbr_sim.scenario_files import find_scenario
 
 pytestmark = pytest.mark.e2e
 
@@ -49,6 +52,9 @@ def test_on_the_lidar_the_robot_passes_what_it_tracks_the_same_way_idle_or_loade
     # (from its first sighting on: the obstacle coming head-on hides the target at the start)
     assert tracking["target_estimates"] >= 0.5 * idle["messages"]["/target_detections"]
     assert tracking["target_position_rmse_m"] < 0.1 and tracking["target_error_p95_m"] < 0.2, tracking
+    # and the batch engine on the LiDAR takes its path and judges its tracker alike (the suite's check)
+    scenario = load_scenario(find_scenario(SCENARIO))
+    assert_the_graph_took_the_batch_engines_path(idle_dir, idle, scenario, scenario.seed, "lidar")
 
     with busy_loops():
         loaded, loaded_dir = run(tmp_path / "loaded", ros_domain)

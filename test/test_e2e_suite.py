@@ -19,19 +19,21 @@ import numpy as np
 import pytest
 from conftest import RUNNER
 
-from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, Z_TORQUE_STEP_MAX, run_batch
-from twbr_batch.suite import TIME_LIMIT
+from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, Z_TORQUE_STEP_MAX, Z_TRACKING, run_batch
+from twbr_batch.suite import SCAN_PERIOD, TIME_LIMIT
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.metrics import series_from_messages
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario, suite_names
+from twbr_tracker.evaluation import N_JUDGE, TrackingFigures
 
 pytestmark = pytest.mark.e2e
 
 SEED = 1
 REPRESENTATIVE = "head_on"
-CASES = [pytest.param(name, perception, marks=[] if name == REPRESENTATIVE else [pytest.mark.long])
+# (head_on on the LiDAR, seed 1: test_e2e_perception's run, compared there)
+CASES = [pytest.param(name, perception, marks=[] if (name, perception) == (REPRESENTATIVE, "truth") else [pytest.mark.long])
          for perception in ("truth", "lidar") for name in suite_names()]
 
 
@@ -50,7 +52,14 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
     m = json.loads((run_dir / "metrics.json").read_text())
     assert m["perception"] == perception
 
-    batch = run_batch(scenario, [SEED], robot_params()[None, :], planner={"method": "robust"},
+    assert_the_graph_took_the_batch_engines_path(run_dir, m, scenario, SEED, perception)
+
+
+def assert_the_graph_took_the_batch_engines_path(run_dir, m: dict, scenario, seed: int, perception: str) -> None:
+    """A graph run (its run directory and metrics.json) against the batch engine's run of the same layout,
+    seed and perception (the robust method): outcome, jolts, the path, and on the LiDAR the tracker judged."""
+    name = scenario.name
+    batch = run_batch(scenario, [seed], robot_params()[None, :], planner={"method": "robust"},
                       duration=min(scenario.duration, TIME_LIMIT), record=True, perception=perception)
     z = batch.table[0]
     path = batch.trace(0)
@@ -77,3 +86,12 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
         assert abs(odom.odom_t[j] - second) <= 0.02, second
         gaps.append(math.hypot(odom.x_c[j] - path["x_c"][i], odom.y_c[j] - path["y_c"][i]))
     assert max(gaps[:15]) < 0.05, (name, gaps[:15])
+    if perception == "lidar":  # the tracker judged by the same kernel at the same scans of nearly the same run
+        figures = TrackingFigures.of(z[Z_TRACKING:Z_TRACKING + N_JUDGE], SCAN_PERIOD).as_dict()
+        graph = m["tracking"]
+        assert graph["instants"] == pytest.approx(figures["instants"], abs=2), (graph, figures)
+        assert graph["judged"] == pytest.approx(figures["judged"], rel=0.05, abs=2), (graph, figures)
+        for key in ("position_rmse_m", "velocity_rmse_mps"):
+            assert (graph[key] is None) == (figures[key] is None), key
+            if figures[key] is not None:
+                assert graph[key] == pytest.approx(figures[key], rel=0.2, abs=0.005), (key, graph, figures)

@@ -8,11 +8,13 @@ import pytest
 
 from twbr_batch import batch
 from twbr_batch import montecarlo as mc
+from twbr_batch.closed_loop import planner_reference, run_closed_loop
 from twbr_common.params import ConfigError
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario, scenario_names, sensor_preset
 from twbr_sim.world import N_SEGMENT, SEG_NEXT_DRAW, SEG_T, SEG_YAW_RATE, advance_segments
+from twbr_tracker.evaluation import N_JUDGE, TrackingFigures
 
 # (trace column, Trace field): what both record at every control sample.
 COMPARED = (("t", "stamp"), ("pitch", "pitch"), ("velocity", "velocity"), ("left_torque", "left_torque"),
@@ -237,3 +239,21 @@ def test_the_lidar_needs_a_scanner():
         batch.run_batch(scenario, [1], robot_params()[None, :], perception="lidar", sim={"lidar.rate": 0.0})
     with pytest.raises(ConfigError, match="perception 'sonar'"):
         batch.run_batch(scenario, [1], robot_params()[None, :], perception="sonar")
+
+
+def test_the_batch_judges_its_tracker_as_the_scalar_cores_do():
+    # At every scan the tracks against the world's obstacles (evaluation.judge_lists): the batch's sums are
+    # those of the scalar cores' run, and they judge something (a moving obstacle seen, matched, settled).
+    scenario = load_scenario(find_scenario("suite/head_on"))
+    planner = {"method": "robust"}
+    reference = planner_reference(planner, perception="lidar")
+    run_closed_loop(20.0, reference, scenario=scenario, seed=1)
+    z = batch.run_batch(scenario, [1], robot_params()[None, :], planner=planner, perception="lidar",
+                        duration=20.0).table[0]
+    judged = z[batch.Z_TRACKING:batch.Z_TRACKING + N_JUDGE]
+    np.testing.assert_array_equal(judged, reference.perception.judge)
+    figures = TrackingFigures.of(judged, 0.1)
+    assert figures.instants >= 190 and figures.judged > 50 and figures.matched > 0.9 * figures.judged
+    assert figures.position_rmse_m is not None and figures.position_rmse_m < 0.1
+    truth = batch.run_batch(scenario, [1], robot_params()[None, :], planner=planner, duration=1.0).table[0]
+    assert not truth[batch.Z_TRACKING:batch.Z_TRACKING + N_JUDGE].any()  # no scan, nothing judged

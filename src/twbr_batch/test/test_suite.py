@@ -63,6 +63,14 @@ def test_each_scenario_is_seen_as_it_says_and_truth_and_lidar_run_side_by_side(t
     assert all(r["outcome"] == "success" for r in rows)
     table = (out / "table.md").read_text()
     assert "| head_on | robust lidar | 100.0 % |" in table
+    # the tracker judged on the LiDAR's runs only: runs.csv's track_* cells, summary.json, a second table
+    judged = {r["perception"]: float(r["track_judged"] or 0) for r in rows}
+    assert judged["lidar"] > 50 and judged["truth"] == 0
+    tracking = json.loads((out / "summary.json").read_text())["head_on"]
+    assert tracking["robust"]["tracking"] is None
+    lidar = tracking["robust lidar"]["tracking"]
+    assert lidar["position_rmse_m"] < 0.1 and lidar["missed_pct"] < 10.0, lidar
+    assert "| scenario | planner | position RMSE [m] |" in table and "| head_on | robust lidar | 0.0" in table
 
 
 def test_the_suite_holds_the_papers_scenarios_and_at_least_ten_of_its_own():

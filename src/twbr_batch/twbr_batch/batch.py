@@ -117,6 +117,7 @@ from twbr_sim.world import (
 )
 from twbr_tracker.detection import N_DISC
 from twbr_tracker.detection import settings_vector as detection_vector
+from twbr_tracker.evaluation import GATE, N_JUDGE, SETTLE, judge_lists
 from twbr_tracker.target import (
     MISSION_PRIOR_STD,
     N_ESTIMATE,
@@ -192,7 +193,7 @@ RESULT_LAYOUT = Layout((
     "reached_at", "collisions", "min_clearance", "pitch_min", "pitch_max", "fallen", "stuck_steps", "sim_time",
     "samples", "physics_steps", "hit_obstacle", ("detected", 6), "pitch_abs_max_settled", "final_distance",
     "stuck_at_end", "lift_events", "slip_events", "lifted_time", "slipping_time", "pitch_error_square_sum",
-    "collision_limited", "torque_step_max",
+    "collision_limited", "torque_step_max", ("tracking", N_JUDGE),
 ))
 Z_REACHED_AT = RESULT_LAYOUT["reached_at"]
 Z_COLLISIONS = RESULT_LAYOUT["collisions"]
@@ -216,6 +217,7 @@ Z_LIFTED_TIME = RESULT_LAYOUT["lifted_time"]  # [s]
 Z_SLIPPING_TIME = RESULT_LAYOUT["slipping_time"]  # [s]
 Z_PITCH_ERROR_SQUARES = RESULT_LAYOUT["pitch_error_square_sum"]  # sum over samples of (pitch used - true)^2
 Z_TORQUE_STEP_MAX = RESULT_LAYOUT["torque_step_max"]  # [N·m] largest change of a wheel's torque between two samples
+Z_TRACKING = RESULT_LAYOUT["tracking"]  # with the LiDAR: the tracker judged at every scan (evaluation.JUDGE_LAYOUT)
 N_RESULT = len(RESULT_LAYOUT)
 SETTLING_TIME = 2.0  # [s] the start's transient, left out of pitch_abs_max_settled
 # Per-sample trace columns (recorded on request): time [s], axle centre [m], pitch [rad], forward speed
@@ -293,7 +295,8 @@ MEMORY_ARRAYS_LAYOUT = Layout((
     "loop", "control", "control_out", "planner_memory", "ring", "plan_out", "tally", "positions", "distances",
     "detected", "detected_at", "derivative", "reading", "odometry", "loads", "estimator_memory",
     "agent_state", "velocities", "tracks", "track_cov", "track_counters", "seen_positions", "seen_velocities",
-    "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov", "walls",
+    "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov", "walls", "track_born",
+    "track_judged",
 ))
 MA_LOOP = MEMORY_ARRAYS_LAYOUT["loop"]
 MA_CONTROL = MEMORY_ARRAYS_LAYOUT["control"]
@@ -324,6 +327,8 @@ MA_SEEN_DISTANCES = MEMORY_ARRAYS_LAYOUT["seen_distances"]
 MA_TARGET_MEMORY = MEMORY_ARRAYS_LAYOUT["target_memory"]
 MA_TARGET_COV = MEMORY_ARRAYS_LAYOUT["target_cov"]
 MA_WALLS = MEMORY_ARRAYS_LAYOUT["walls"]
+MA_TRACK_BORN = MEMORY_ARRAYS_LAYOUT["track_born"]  # the listed tracks' ids and first listing (judge_lists)
+MA_TRACK_JUDGED = MEMORY_ARRAYS_LAYOUT["track_judged"]  # per obstacle: the track it was last matched to
 # What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
 # motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
 # v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
@@ -342,6 +347,7 @@ def new_memories(n, run, n_obstacles, n_tracks, n_seen, n_walls):
     """Per-robot memories for n robots of a run, in MEMORY_ARRAYS_LAYOUT's order (the agents' states:
     agents.AGENT_STATE_LAYOUT; n_tracks, n_seen, n_walls: the tracker's table, output rows and wall memory, 0
     without LiDAR)."""
+    n_judged = n_obstacles if n_tracks > 0 else 0  # the judge's memory of each obstacle's last track
     return (
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
@@ -353,6 +359,7 @@ def new_memories(n, run, n_obstacles, n_tracks, n_seen, n_walls):
         np.zeros((n, n_tracks, N_TRACK)), np.zeros((n, n_tracks, 4, 4)), np.zeros((n, N_COUNTERS)),
         np.zeros((n, n_seen, 2)), np.zeros((n, n_seen, 2)), np.zeros((n, n_seen)), np.zeros((n, n_seen, 2)),
         np.zeros((n, n_seen)), np.zeros((n, N_TARGET_MEMORY)), np.zeros((n, 4, 4)), np.zeros((n, n_walls, N_WALL)),
+        np.zeros((n, n_tracks, 2)), np.zeros((n, n_judged)),
     )
 
 
@@ -370,6 +377,8 @@ def robot_begin(j, run, result, memories, imu_c, imu_m, generator, agents):
     memories[MA_TRACK_COV][j] = 0.0
     memories[MA_TRACK_COUNTERS][j, :] = 0.0
     memories[MA_TRACK_COUNTERS][j, K_NEXT_ID] = 1.0
+    memories[MA_TRACK_BORN][j, :, 0] = -1.0
+    memories[MA_TRACK_JUDGED][j, :] = -1.0
     target_begin(memories[MA_TARGET_MEMORY][j], memories[MA_TARGET_COV][j])
     loop[j, L_COMMANDED] = 0.0 if run[U_HAS_TARGET] != 0.0 else 1.0  # a planner's first command applies
     control[j, :] = 0.0                                                # from the second sample
@@ -472,6 +481,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     seen_radii, plan_positions = memories[MA_SEEN_RADII], memories[MA_PLAN_POSITIONS]
     seen_distances = memories[MA_SEEN_DISTANCES]
     target_memory, target_cov = memories[MA_TARGET_MEMORY], memories[MA_TARGET_COV]
+    track_born, track_judged = memories[MA_TRACK_BORN], memories[MA_TRACK_JUDGED]
     walls = memories[MA_WALLS]
     segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
     imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
@@ -587,6 +597,8 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
                 seen_velocities[j, r, 1] = rows[r, 4]
                 seen_radii[j, r] = rows[r, 5]
             loop[j, L_SEEN_COUNT] = count
+            judge_lists(results[j, Z_TRACKING:Z_TRACKING + N_JUDGE], track_born[j], track_judged[j], t, rows, count,
+                        positions[j], velocities[j], radii, x, y, lidar_s[lidar.LD_RANGE_MAX], GATE, SETTLE)
             loop[j, L_SEEN_T] = t
         if looks and has_target and is_due(t, loop[j, L_LOOK_NEXT]):  # the detector's look, fused
             loop[j, L_LOOK_NEXT] = next_due(t, loop[j, L_LOOK_NEXT], run[U_LOOK_PERIOD])

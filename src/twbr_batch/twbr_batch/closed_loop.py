@@ -178,20 +178,27 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
             v_ref, _ = monitor.limit(t, v_ref, odom[J_X], odom[J_Y], odom[J_YAW])
         return v_ref, w_ref, None if never_commanded else command.since
 
+    reference.perception = seeing  # what it saw and how well it tracked, for a caller that asks
     return reference
 
 
 class LidarPerception:
     """What tracker_node makes of a simulator's scan and target detector, on the scalar cores (the tracker's
-    and target filter's classes), with a LaserScan's rounding: float32 ranges and angle fields."""
+    and target filter's classes), with a LaserScan's rounding: float32 ranges and angle fields; and the
+    tracker judged against the world at every scan (`judge`: evaluation.JUDGE_LAYOUT's sums, as a graph
+    run's metrics.json and the batch engine's result rows have them)."""
 
     def __init__(self, tracker: Mapping[str, Any] | None) -> None:
+        from twbr_tracker.evaluation import N_JUDGE
         from twbr_tracker.target import MISSION_PRIOR_STD, TARGET_SPECS, TargetFilter
         from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
         specs = (*TRACKER_SPECS, *TARGET_SPECS)
         self.cfg = validate_all(specs, {**defaults(specs), **(tracker or {}), "target.prior_std": MISSION_PRIOR_STD})
         self.tracker = Tracker(self.cfg)
+        self.judge = np.zeros(N_JUDGE)
+        self._born = np.tile([-1.0, 0.0], (int(self.cfg["tracking.max_tracks"]), 1))  # judge_lists' memories
+        self._last_track: np.ndarray | None = None
         self.filter: TargetFilter | None = None  # built at the first look: its prior is where the target starts
         self.rows = np.zeros((0, 6))  # the last scan's obstacles: id, x, y, vx, vy, radius
         self.stamp = 0.0
@@ -202,6 +209,7 @@ class LidarPerception:
     def sense(self, t: float, sim: Simulator, monitor: CollisionMonitor) -> None:
         """The scan and the look due at t, as sim_node publishes them and tracker_node takes them."""
         from twbr_planner.planner import Target
+        from twbr_tracker.evaluation import GATE, SETTLE, judge_lists
         from twbr_tracker.target import TargetFilter
 
         if self._scan_due is None:
@@ -218,6 +226,12 @@ class LidarPerception:
                                             odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
             self.stamp = t
             monitor.obstacles(t, self.rows)
+            positions, velocities, radii = sim.obstacle_arrays()
+            if self._last_track is None:
+                self._last_track = np.full(len(radii), -1.0)
+            state = sim.state
+            judge_lists(self.judge, self._born, self._last_track, t, self.rows, len(self.rows), positions, velocities,
+                        radii, state[dyn.S_XC], state[dyn.S_YC], s[lidar.LD_RANGE_MAX], GATE, SETTLE)
         if self._look_due is not None and sim.world is not None and self._look_due.due(t):
             if self.filter is None:
                 start = sim.world.target()

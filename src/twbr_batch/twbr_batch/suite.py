@@ -47,16 +47,19 @@ from twbr_batch.batch import (
     Z_STUCK_AT_END,
     Z_STUCK_STEPS,
     Z_TORQUE_STEP_MAX,
+    Z_TRACKING,
     run_batch,
 )
 from twbr_batch.montecarlo import csv_text, finite_or_none
-from twbr_common.params import ConfigError
+from twbr_common.params import ConfigError, default_of
 from twbr_planner.planner_params import METHODS
 from twbr_planner.planner_params import resolve as resolve_planner
+from twbr_sim.lidar import LIDAR_SPECS
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import PERCEPTIONS, Scenario, load_scenario, run_perception, vary
 from twbr_sim.scenario_files import find_scenario, suite_names
 from twbr_sim.world import World
+from twbr_tracker.evaluation import JUDGE_LAYOUT, N_JUDGE, TrackingFigures
 
 PAPER_SCENARIOS = ("static", "dynamic_target", "dynamic_obstacles")
 TIME_LIMIT = 120.0  # [s]
@@ -98,13 +101,24 @@ class SuiteRow:
     sim_time_s: float
     torque_step_max_nm: float = math.nan  # a wheel's largest torque change between two control samples
     perception: str = "truth"  # what the planner's obstacles and target came from: "truth" or "lidar"
+    # with the LiDAR: the tracker judged at every scan (evaluation.JUDGE_LAYOUT's sums; runs.csv: track_*)
+    tracking: tuple[float, ...] = ()
 
     @property
     def succeeded(self) -> bool:
         return self.outcome == "success"
 
 
-COLUMNS = tuple(f.name for f in fields(SuiteRow))
+COLUMNS = (*(f.name for f in fields(SuiteRow) if f.name != "tracking"), *(f"track_{n}" for n in JUDGE_LAYOUT.names))
+SCAN_PERIOD = 1.0 / default_of(LIDAR_SPECS, "lidar.rate")  # [s] the batch's scans (sim_node's default)
+
+
+def csv_row(row: SuiteRow) -> dict[str, str]:
+    """A run as runs.csv's cells."""
+    cells = {k: csv_text(v) for k, v in asdict(row).items() if k != "tracking"}
+    judged = row.tracking or (None,) * N_JUDGE  # on the truth: empty cells
+    cells.update({f"track_{n}": csv_text(v) for n, v in zip(JUDGE_LAYOUT.names, judged, strict=True)})
+    return cells
 
 
 def suite_scenarios() -> list[Path]:
@@ -198,6 +212,7 @@ def run_rows(path: Path, variant: str, planner: Mapping[str, Any], seeds: Sequen
             stuck_time_s=float(z[Z_STUCK_STEPS]) / PLANNER_RATE, pitch_abs_max_settled_rad=float(z[Z_PITCH_SETTLED]),
             final_distance_m=float(z[Z_FINAL_DISTANCE]), sim_time_s=float(z[Z_SIM_TIME]),
             torque_step_max_nm=float(z[Z_TORQUE_STEP_MAX]), perception=perception,
+            tracking=tuple(float(v) for v in z[Z_TRACKING:Z_TRACKING + N_JUDGE]) if perception == "lidar" else (),
         ))
     return rows
 
@@ -218,7 +233,14 @@ def summarise(rows: Sequence[SuiteRow]) -> dict[str, Any]:
         "min_clearance_m": min(clearance) if clearance else None,
         "pitch_abs_max_settled_rad": max(r.pitch_abs_max_settled_rad for r in rows),
         "torque_step_max_nm": max(r.torque_step_max_nm for r in rows),
+        "tracking": tracking_figures(rows),
     }
+
+
+def tracking_figures(rows: Sequence[SuiteRow]) -> dict[str, Any] | None:
+    """The tracker's figures over the runs on the LiDAR (their sums pooled: evaluation.TrackingFigures)."""
+    judged = [r.tracking for r in rows if r.tracking]
+    return TrackingFigures.of(np.sum(judged, axis=0), SCAN_PERIOD).as_dict() if judged else None
 
 
 def _cell(value: Any, fmt: str = "{:.1f}") -> str:
@@ -242,6 +264,22 @@ def markdown_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], varia
                 f" {_cell(s['time_to_reach_p95_s'])} | {_cell(s['min_clearance_m'], '{:.2f}')} |"
                 f" {s['pitch_abs_max_settled_rad']:.4f} | {_cell(s.get('torque_step_max_nm'), '{:.3f}')} |")
     return "\n".join(lines) + "\n"
+
+
+def tracking_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], variants: Sequence[str]) -> str:
+    """The tracker's figures per scenario and variant on the LiDAR (none: "")."""
+    lines = ["| scenario | planner | position RMSE [m] | velocity RMSE [m/s] | ID switches per 100 track-s |"
+             " missed [%] | false tracks [%] | judged |", "|---|---|---|---|---|---|---|---|"]
+    for scenario, by_variant in summary.items():
+        for variant in variants:
+            f = (by_variant.get(variant) or {}).get("tracking")
+            if f is None:
+                continue
+            lines.append(
+                f"| {scenario} | {variant} | {_cell(f['position_rmse_m'], '{:.3f}')} |"
+                f" {_cell(f['velocity_rmse_mps'], '{:.3f}')} | {_cell(f['id_switches_per_100_track_s'], '{:.2f}')} |"
+                f" {_cell(f['missed_pct'])} | {_cell(f['false_pct'])} | {f['judged']} |")
+    return "\n" + "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
 def success_table(summary: Mapping[str, Mapping[str, Mapping[str, Any]]], variants: Sequence[str]) -> str:
@@ -330,7 +368,7 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
                 rows: list[SuiteRow] = []
                 for k in range(0, len(seeds), CHUNK):
                     chunk = run_rows(path, variant, planner, seeds[k:k + CHUNK])
-                    writer.writerows({k: csv_text(v) for k, v in asdict(r).items()} for r in chunk)
+                    writer.writerows(csv_row(r) for r in chunk)
                     f.flush()
                     rows += chunk
                 summary[name][variant] = summarise(rows)
@@ -342,7 +380,7 @@ def run_suite(out_dir: Path, runs: int, variants: Mapping[str, Mapping[str, Any]
                 (out_dir / "figures").mkdir(exist_ok=True)
                 scenario_figure(path, {v: variants[v] for v in list(variants)[:2]}, out_dir / "figures" / f"{name}.png")
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
-    (out_dir / "table.md").write_text(markdown_table(summary, list(variants)))
+    (out_dir / "table.md").write_text(markdown_table(summary, list(variants)) + tracking_table(summary, list(variants)))
     return summary
 
 
@@ -396,7 +434,7 @@ def main(argv: list[str] | None = None) -> int:
           f" -> {opts.out}", flush=True)
     summary = run_suite(opts.out, opts.runs, variants, paths, figures=not opts.no_figures,
                         first_seed=opts.first_seed)
-    print(markdown_table(summary, list(variants)))
+    print(markdown_table(summary, list(variants)) + tracking_table(summary, list(variants)))
     return 0
 
 

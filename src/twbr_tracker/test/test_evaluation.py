@@ -5,7 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twbr_tracker.evaluation import evaluate, visible
+from twbr_tracker.evaluation import (
+    JG_ID_SWITCHES,
+    JG_MATCHED,
+    JG_MISSED,
+    JG_POSITION_SQUARES,
+    JG_SETTLED,
+    N_JUDGE,
+    evaluate,
+    judge_lists,
+    visible,
+)
 from twbr_tracker.tracker import WALL_IDS
 
 
@@ -57,3 +67,19 @@ def test_a_person_behind_another_or_out_of_range_is_not_judged():
     assert visible((0.0, 0.0), world, 12.0).tolist() == [True, False, False, True]
     f = evaluate([(0.0, rows((1, 3.0, 0.0, 0.5, 0.0, 0.3)), world, (0.0, 0.0))], range_max=12.0)
     assert f.judged == 1 and f.missed == 0  # the hidden, the far and the standing one are not counted
+
+
+def test_a_track_missing_from_a_list_is_born_again_when_it_comes_back():
+    # Listed from 0 s, missing at 2.0 and 2.1 s, then back: its filter's first second is not judged again.
+    judge = np.zeros(N_JUDGE)
+    born = np.tile([-1.0, 0.0], (4, 1))
+    last_track = np.full(1, -1.0)
+    for k in range(40):
+        t = round(0.1 * k, 1)
+        world = rows((1, 0.5 * t, 2.0, 0.5, 0.0, 0.3))
+        listed = rows((1, 0.5 * t + 0.04, 2.0, 0.5, 0.0, 0.3)) if t not in (2.0, 2.1) else rows()
+        judge_lists(judge, born, last_track, t, listed, len(listed), world[:, 1:3].copy(), world[:, 3:5].copy(),
+                    world[:, 5].copy(), 0.0, 0.0, 12.0, 0.5, 1.0)
+    assert judge[JG_MATCHED] == 38 and judge[JG_MISSED] == 2 and judge[JG_ID_SWITCHES] == 0
+    assert judge[JG_SETTLED] == 10 + 8  # 1.0-1.9 s and 3.2-3.9 s, not 2.2-3.1 s (born again at 2.2)
+    assert judge[JG_POSITION_SQUARES] == pytest.approx(18 * 0.04**2)

@@ -13,6 +13,11 @@ Stiefelhagen 2008, on our discs):
 - ID switches: a visible obstacle matched to another track than the one it was last matched to;
 - missed: a visible moving obstacle without a track; false: a track matched to no obstacle at all;
 - per 100 track-seconds: ID switches over the time the matched tracks existed.
+
+A track's age counts from the first list that carries its id since it was last missing from one (a track
+dropped and taken back restarts its filter's first second). `judge_lists` is the one judging step, compiled:
+the batch engine calls it at every scan of every robot (its suite table's tracker figures), `evaluate` at
+every instant of a graph run's recording (metrics.json).
 """
 
 from __future__ import annotations
@@ -24,12 +29,31 @@ from typing import Any
 
 import numpy as np
 
+from twbr_common.jit import kernel
+from twbr_common.layout import Layout
 from twbr_tracker.assignment import assign
 from twbr_tracker.tracker import WALL_IDS
 
 # Rows of an obstacle list: id, x, y, vx, vy, radius (twbr_common.cdr.obstacle_rows)
 OB_ID, OB_X, OB_Y, OB_VX, OB_VY, OB_RADIUS = range(6)
 MOVING = 0.05  # [m/s] an obstacle slower than this is standing (a person waiting is not judged on velocity)
+GATE = 0.5  # [m] a track further than this from an obstacle's centre is not on it
+SETTLE = 1.0  # [s] a track's first second is its filter's start: not judged on error
+
+# What judging a run adds up, list after list (judge_lists)
+JUDGE_LAYOUT = Layout(("instants", "judged", "matched", "settled", "position_square_sum", "velocity_square_sum",
+                       "id_switches", "missed", "false_tracks", "tracks"))
+JG_INSTANTS = JUDGE_LAYOUT["instants"]
+JG_JUDGED = JUDGE_LAYOUT["judged"]
+JG_MATCHED = JUDGE_LAYOUT["matched"]
+JG_SETTLED = JUDGE_LAYOUT["settled"]  # matched pairs whose track is older than settle
+JG_POSITION_SQUARES = JUDGE_LAYOUT["position_square_sum"]  # [m^2]
+JG_VELOCITY_SQUARES = JUDGE_LAYOUT["velocity_square_sum"]  # [m^2/s^2]
+JG_ID_SWITCHES = JUDGE_LAYOUT["id_switches"]
+JG_MISSED = JUDGE_LAYOUT["missed"]
+JG_FALSE = JUDGE_LAYOUT["false_tracks"]
+JG_TRACKS = JUDGE_LAYOUT["tracks"]
+N_JUDGE = len(JUDGE_LAYOUT)
 
 
 @dataclass(frozen=True)
@@ -50,66 +74,135 @@ class TrackingFigures:
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    @staticmethod
+    def of(judge: np.ndarray, period: float) -> TrackingFigures:
+        """From judge_lists' sums (JUDGE_LAYOUT; of one run or added over runs), lists `period` [s] apart."""
+        settled, matched, judged = judge[JG_SETTLED], judge[JG_MATCHED], judge[JG_JUDGED]
+        tracks, switches = judge[JG_TRACKS], int(judge[JG_ID_SWITCHES])
+        track_seconds = float(matched * period)
+        return TrackingFigures(
+            int(judge[JG_INSTANTS]), int(judged), int(matched),
+            math.sqrt(judge[JG_POSITION_SQUARES] / settled) if settled else None,
+            math.sqrt(judge[JG_VELOCITY_SQUARES] / settled) if settled else None,
+            switches, track_seconds, 100.0 * switches / track_seconds if track_seconds else None,
+            int(judge[JG_MISSED]), int(judge[JG_FALSE]),
+            100.0 * judge[JG_MISSED] / judged if judged else None,
+            100.0 * judge[JG_FALSE] / tracks if tracks else None,
+        )
+
+
+@kernel
+def is_visible(positions, radii, w, rx, ry, range_max):
+    """Whether the scanner at (rx, ry) [m] can see obstacle w: in range, and no other disc across the line
+    from the robot to its centre."""
+    cx = positions[w, 0] - rx
+    cy = positions[w, 1] - ry
+    dist = math.hypot(cx, cy)
+    if dist - radii[w] > range_max:
+        return False
+    if dist < 1e-9:
+        return True
+    ux = cx / dist
+    uy = cy / dist
+    for o in range(radii.shape[0]):
+        if o == w:
+            continue
+        ox = positions[o, 0] - rx
+        oy = positions[o, 1] - ry
+        along = ox * ux + oy * uy
+        if 0.0 < along < dist - radii[w] and abs(ox * uy - oy * ux) < radii[o]:
+            return False
+    return True
+
+
+@kernel
+def judge_lists(judge, born, last_track, stamp, rows, count, positions, velocities, radii, rx, ry, range_max, gate,
+                settle):
+    """One instant: the tracker's list rows[:count] (OBSTACLE_ROW; walls' discs skipped) against the world's
+    obstacles (positions [m], velocities [m/s], radii [m]; in the same order at every instant), the robot at
+    (rx, ry) [m]; adds to judge (JUDGE_LAYOUT). born (rows of id, first stamp; id -1 free) carries the listed
+    tracks' ages, last_track (per world obstacle, -1 none) the track it was last matched to."""
+    index = np.empty(count, dtype=np.int64)  # the tracks' rows
+    n = 0
+    for r in range(count):
+        if rows[r, OB_ID] < WALL_IDS:
+            index[n] = r
+            n += 1
+    ages = np.empty(n)
+    listed = np.empty((n, 2))
+    for k in range(n):
+        tid = rows[index[k], OB_ID]
+        first = stamp
+        for q in range(born.shape[0]):
+            if born[q, 0] == tid:
+                first = born[q, 1]
+                break
+        ages[k] = stamp - first
+        listed[k, 0] = tid
+        listed[k, 1] = first
+    for q in range(born.shape[0]):  # the listed tracks only: one missing from this list is born again
+        born[q, 0] = listed[q, 0] if q < n else -1.0
+        born[q, 1] = listed[q, 1] if q < n else 0.0
+    m = radii.shape[0]
+    cost = np.empty((n, m))
+    for k in range(n):
+        r = index[k]
+        for w in range(m):
+            cost[k, w] = math.hypot(rows[r, OB_X] - positions[w, 0], rows[r, OB_Y] - positions[w, 1])
+    match = np.empty(n, dtype=np.int64)
+    assign(cost, gate, match)
+    track_of = np.full(m, -1, dtype=np.int64)
+    for k in range(n):
+        if match[k] >= 0:
+            track_of[match[k]] = k
+        else:
+            judge[JG_FALSE] += 1.0
+    judge[JG_INSTANTS] += 1.0
+    judge[JG_TRACKS] += n
+    for w in range(m):
+        if math.hypot(velocities[w, 0], velocities[w, 1]) < MOVING or not is_visible(positions, radii, w, rx, ry,
+                                                                                      range_max):
+            continue
+        judge[JG_JUDGED] += 1.0
+        k = track_of[w]
+        if k < 0:
+            judge[JG_MISSED] += 1.0
+            continue
+        judge[JG_MATCHED] += 1.0
+        tid = rows[index[k], OB_ID]
+        if last_track[w] >= 0.0 and last_track[w] != tid:
+            judge[JG_ID_SWITCHES] += 1.0
+        last_track[w] = tid
+        if ages[k] >= settle:
+            judge[JG_SETTLED] += 1.0
+            judge[JG_POSITION_SQUARES] += cost[k, w] ** 2
+            judge[JG_VELOCITY_SQUARES] += ((rows[index[k], OB_VX] - velocities[w, 0]) ** 2
+                                           + (rows[index[k], OB_VY] - velocities[w, 1]) ** 2)
+
 
 def visible(robot: tuple[float, float], rows: np.ndarray, range_max: float) -> np.ndarray:
-    """Which of the world's obstacles the scanner at `robot` can see: in range, and no other disc across
-    the line from the robot to their centre."""
-    rx, ry = robot
-    centres = rows[:, OB_X:OB_Y + 1] - (rx, ry)
-    dist = np.hypot(centres[:, 0], centres[:, 1])
-    seen = dist - rows[:, OB_RADIUS] <= range_max
-    for i in np.flatnonzero(seen):
-        if dist[i] < 1e-9:
-            continue
-        u = centres[i] / dist[i]
-        along = centres @ u
-        across = np.abs(centres[:, 0] * u[1] - centres[:, 1] * u[0])
-        blocking = (along > 0.0) & (along < dist[i] - rows[i, OB_RADIUS]) & (across < rows[:, OB_RADIUS])
-        blocking[i] = False
-        seen[i] = not blocking.any()
-    return seen
+    """Which of the world's obstacles (rows of an obstacle list) the scanner at `robot` can see."""
+    positions = np.ascontiguousarray(rows[:, OB_X:OB_Y + 1])
+    radii = np.ascontiguousarray(rows[:, OB_RADIUS])
+    return np.array([is_visible(positions, radii, w, robot[0], robot[1], range_max) for w in range(len(rows))],
+                    dtype=bool)
 
 
 def evaluate(instants: Iterable[tuple[float, np.ndarray, np.ndarray, tuple[float, float]]], range_max: float,
-             gate: float = 0.5, settle: float = 1.0, period: float = 0.1) -> TrackingFigures:
+             gate: float = GATE, settle: float = SETTLE, period: float = 0.1) -> TrackingFigures:
     """The figures over (stamp, track rows, world rows, robot x/y at that stamp), in time order."""
-    born: dict[int, float] = {}  # track id -> first stamp seen
-    last_track: dict[int, int] = {}  # world id -> the track it was last matched to
-    pos_sq, vel_sq = [], []
-    n_instants = judged = matched = switches = missed = false = tracks_total = 0
+    judge = np.zeros(N_JUDGE)
+    born = np.empty((0, 2))
+    last_track = np.empty(0)
     for stamp, tracks, world, robot in instants:
-        tracks = tracks[tracks[:, OB_ID] < WALL_IDS]
-        for tid in tracks[:, OB_ID].astype(int):
-            born.setdefault(int(tid), stamp)
-        n_instants += 1
-        tracks_total += len(tracks)
-        cost = np.hypot(tracks[:, None, OB_X] - world[None, :, OB_X], tracks[:, None, OB_Y] - world[None, :, OB_Y])
-        match = np.full(len(tracks), -1, dtype=np.int64)
-        assign(np.ascontiguousarray(cost.reshape(len(tracks), len(world))), gate, match)
-        false += int((match < 0).sum())
-        track_of = {int(w): i for i, w in enumerate(match) if w >= 0}
-        moving = np.hypot(world[:, OB_VX], world[:, OB_VY]) >= MOVING
-        judged_here = np.flatnonzero(moving & visible(robot, world, range_max))
-        for w in judged_here:
-            judged += 1
-            i = track_of.get(int(w))
-            if i is None:
-                missed += 1
-                continue
-            matched += 1
-            wid, tid = int(world[w, OB_ID]), int(tracks[i, OB_ID])
-            if last_track.get(wid, tid) != tid:
-                switches += 1
-            last_track[wid] = tid
-            if stamp - born[tid] >= settle:
-                pos_sq.append(cost[i, w] ** 2)
-                vel_sq.append((tracks[i, OB_VX] - world[w, OB_VX]) ** 2 + (tracks[i, OB_VY] - world[w, OB_VY]) ** 2)
-    track_seconds = matched * period
-    return TrackingFigures(
-        n_instants, judged, matched,
-        math.sqrt(float(np.mean(pos_sq))) if pos_sq else None,
-        math.sqrt(float(np.mean(vel_sq))) if vel_sq else None,
-        switches, track_seconds, 100.0 * switches / track_seconds if track_seconds else None,
-        missed, false, 100.0 * missed / judged if judged else None,
-        100.0 * false / tracks_total if tracks_total else None,
-    )
+        tracks = np.ascontiguousarray(tracks, dtype=float).reshape(-1, 6)
+        world = np.asarray(world, dtype=float).reshape(-1, 6)
+        if len(born) < len(tracks):  # room for every listed track (the batch: the tracker's capacity)
+            born = np.vstack([born, np.tile([-1.0, 0.0], (len(tracks) - len(born), 1))])
+        if len(last_track) < len(world):
+            last_track = np.concatenate([last_track, np.full(len(world) - len(last_track), -1.0)])
+        judge_lists(judge, born, last_track, float(stamp), tracks, len(tracks),
+                    np.ascontiguousarray(world[:, OB_X:OB_Y + 1]), np.ascontiguousarray(world[:, OB_VX:OB_VY + 1]),
+                    np.ascontiguousarray(world[:, OB_RADIUS]), float(robot[0]), float(robot[1]), range_max, gate,
+                    settle)
+    return TrackingFigures.of(judge, period)
