@@ -133,8 +133,9 @@ def cast_scan_every_beam(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, posi
     cos_th = math.cos(pitch)
     z = axle_height + s[LD_HEIGHT] * cos_th
     geometry = np.empty((beams, N_BEAM))
+    ready = np.zeros(beams, dtype=np.bool_)
     for i in range(beams):
-        beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
+        beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry, ready)
         best = math.inf
         if geometry[i, BEAM_DOWN] > 0.0:
             best = z / geometry[i, BEAM_DOWN]

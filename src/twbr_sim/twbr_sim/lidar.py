@@ -123,10 +123,14 @@ def disc_hit(ox, oy, dx, dy, cx, cy, radius):
 
 
 @kernel
-def beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry):
+def beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry, ready):
     """Beam i of a scan begun at (x, y, yaw) [m, rad] moving at (speed, yaw_rate), pitched by (sin_th, cos_th):
     into geometry[i] (BEAM_*) the scanner at the beam's instant [m], its horizontal unit direction, its
-    horizontal share (1 level, less tipped), the share pointing down, and the instant [s after the first]."""
+    horizontal share (1 level, less tipped), the share pointing down, and the instant [s after the first];
+    once per scan (ready[i])."""
+    if ready[i]:
+        return
+    ready[i] = True
     dt = i * s[LD_TIME_INCREMENT]
     sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, s[LD_HEIGHT] * sin_th)
     bearing = s[LD_ANGLE_MIN] + i * s[LD_ANGLE_INCREMENT]
@@ -200,9 +204,7 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
                             windows)
             for k in range(n):
                 for i in range(windows[k, 0], windows[k, 1] + 1):
-                    if not ready[i]:
-                        beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
-                        ready[i] = True
+                    beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry, ready)
                     down = geometry[i, BEAM_DOWN]
                     if down > 0.0:
                         ranges[i] = min(ranges[i], z / down)  # where the tipped plane meets the floor
@@ -224,9 +226,7 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
         n = beam_window(math.atan2(fy, fx), half, yaw + s[LD_ANGLE_MIN], step, beams, windows)
         for k in range(n):
             for i in range(windows[k, 0], windows[k, 1] + 1):
-                if not ready[i]:
-                    beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry)
-                    ready[i] = True
+                beam_geometry(s, i, x, y, yaw, speed, yaw_rate, sin_th, cos_th, geometry, ready)
                 horizontal = geometry[i, BEAM_HORIZONTAL]
                 if horizontal > 0.0:
                     dt = geometry[i, BEAM_DT]
