@@ -54,6 +54,10 @@ from twbr_sim.simulator import SIM_SPECS
 # a busy moment made late all at once, or a checker the host holds back for 25 ms, must not lose samples
 # in the checker's own queue: the rate check counts what arrives.
 LISTEN_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
+# Wall seconds, and odom messages, arriving with a stamp that never advances: the driver's clock is stuck
+# (or unset), and waiting the whole timeout for its time to pass would only delay the failed stamps check.
+STALLED_S = 2.0
+STALLED_MESSAGES = 20
 
 
 class DriverChecker(Node):
@@ -71,6 +75,8 @@ class DriverChecker(Node):
         self.last_pitch = 0.0
         self.efforts: list[float] = []
         self.torque = 0.0
+        self._advanced_at = time.monotonic()  # wall time of the odom stamp's last advance
+        self._since_advance = 0  # odom messages since
         self.pub = self.create_publisher(WheelTorques, COMMAND_TOPIC[0], COMMAND_QOS)
 
     def graph_checks(self) -> list[Check]:
@@ -113,7 +119,13 @@ class DriverChecker(Node):
         self.links.update((t.header.frame_id, t.child_frame_id) for t in msg.transforms)
 
     def _on_odom(self, msg: Odometry) -> None:
-        self.stamps["odom"].append(stamp_seconds(msg.header.stamp))
+        stamp = stamp_seconds(msg.header.stamp)
+        if stamp > self.driver_time():
+            self._advanced_at = time.monotonic()
+            self._since_advance = 0
+        else:
+            self._since_advance += 1
+        self.stamps["odom"].append(stamp)
         self.odom_frames.add((msg.header.frame_id, msg.child_frame_id))
         self.last_speed = msg.twist.twist.linear.x
         self.pub.publish(WheelTorques(header=msg.header, left=self.torque, right=self.torque))
@@ -138,6 +150,14 @@ class DriverChecker(Node):
 
     def driver_time(self) -> float:
         return self.stamps["odom"][-1] if self.stamps["odom"] else 0.0
+
+    def clock_stalled(self) -> bool:
+        """Odom keeps arriving but its stamp has not advanced for STALLED_S wall seconds."""
+        return self._since_advance >= STALLED_MESSAGES and time.monotonic() - self._advanced_at >= STALLED_S
+
+    def waited(self, since: float, driver_seconds: float) -> bool:
+        """`driver_seconds` of the driver's time have passed since its time `since`, or never will."""
+        return self.driver_time() - since >= driver_seconds or self.clock_stalled()
 
 
 def _compatible(publisher: QoSProfile, subscription: QoSProfile) -> tuple[bool, str]:
@@ -165,7 +185,7 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
     if not spin_until(node, lambda: len(node.stamps["odom"]) > 2, args.timeout):
         return [*checks, Check("odom received", False, f"nothing within {args.timeout:g} s")]
     start = node.driver_time()
-    spin_until(node, lambda: node.driver_time() - start >= args.window, args.timeout + 5 * args.window)
+    spin_until(node, lambda: node.waited(start, args.window), args.timeout + 5 * args.window)
     for topic in SENSOR_TOPICS:
         checks.append(check_stamps(topic, node.stamps[topic]))
         checks.append(check_rate(topic, node.stamps[topic], args.rate, args.tolerance))
@@ -183,7 +203,7 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
     node.efforts.clear()
     node.torque = args.torque
     t0 = node.driver_time()
-    spin_until(node, lambda: node.driver_time() - t0 >= args.pulse, args.timeout + 5 * args.pulse)
+    spin_until(node, lambda: node.waited(t0, args.pulse), args.timeout + 5 * args.pulse)
     v1, p1 = node.last_speed, node.last_pitch
     effort_during = mean(node.efforts[len(node.efforts) // 2:]) if node.efforts else 0.0
     node.torque = 0.0
