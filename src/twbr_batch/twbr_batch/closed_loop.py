@@ -221,9 +221,9 @@ class LidarPerception:
             s = sim.lidar_settings
             ranges = sim.scan().astype(np.float32).astype(np.float64)
             self.rows = self.tracker.step_rows(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
-                                       float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
-                                       float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X], odom[J_Y],
-                                            odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
+                                               float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
+                                               float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X],
+                                               odom[J_Y], odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
             self.stamp = t
             monitor.obstacles(t, self.rows)
             positions, velocities, radii = sim.obstacle_arrays()
