@@ -17,6 +17,7 @@ from twbr_sim.lidar import (
     BEAM_HORIZONTAL,
     BEAM_SX,
     BEAM_SY,
+    LD_BEAMS,
     LD_HEIGHT,
     LD_RANGE_MAX,
     LD_RANGE_MIN,
@@ -128,7 +129,7 @@ def test_noise_and_dropouts_are_the_device_s_and_the_seed_s():
 @kernel
 def cast_scan_every_beam(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velocities, radii, ranges):
     """The cast as first written: every beam against the floor and every disc (cast_scan's oracle)."""
-    beams = int(s[2])
+    beams = int(s[LD_BEAMS])
     sin_th = math.sin(pitch)
     cos_th = math.cos(pitch)
     z = axle_height + s[LD_HEIGHT] * cos_th
@@ -172,8 +173,8 @@ def test_casting_each_disc_on_its_beams_only_returns_every_beams_range_bit_for_b
         speed = rng.uniform(-2.5, 2.5)
         yaw_rate = rng.choice([0.0, rng.uniform(-6.0, 6.0), 1e-13 * rng.uniform(-1.0, 1.0), rng.uniform(-400.0, 400.0)])
         args = (s, x, y, yaw, pitch, speed, yaw_rate, AXLE, positions, velocities, radii)
-        fast = np.empty(int(s[2]))
-        every = np.empty(int(s[2]))
+        fast = np.empty(int(s[LD_BEAMS]))
+        every = np.empty(int(s[LD_BEAMS]))
         cast_scan(*args, fast)
         cast_scan_every_beam(*args, every)
         assert np.array_equal(fast, every), (trial, np.flatnonzero(fast != every))

@@ -13,8 +13,8 @@ from twbr_tracker.evaluation import (
     JG_SETTLED,
     N_JUDGE,
     evaluate,
+    is_visible,
     judge_lists,
-    visible,
 )
 from twbr_tracker.tracker import WALL_IDS
 
@@ -64,7 +64,8 @@ def test_a_track_off_by_more_than_the_gate_is_false_and_its_person_missed():
 def test_a_person_behind_another_or_out_of_range_is_not_judged():
     world = rows((1, 3.0, 0.0, 0.5, 0.0, 0.3), (2, 6.0, 0.0, 0.5, 0.0, 0.3), (3, 0.0, 20.0, 0.5, 0.0, 0.3),
                  (4, 0.0, 3.0, 0.0, 0.0, 0.3))
-    assert visible((0.0, 0.0), world, 12.0).tolist() == [True, False, False, True]
+    positions, radii = world[:, 1:3].copy(), world[:, 5].copy()
+    assert [is_visible(positions, radii, w, 0.0, 0.0, 12.0) for w in range(4)] == [True, False, False, True]
     f = evaluate([(0.0, rows((1, 3.0, 0.0, 0.5, 0.0, 0.3)), world, (0.0, 0.0))], range_max=12.0)
     assert f.judged == 1 and f.missed == 0  # the hidden, the far and the standing one are not counted
 

@@ -180,14 +180,6 @@ def judge_lists(judge, born, last_track, stamp, rows, count, positions, velociti
                                            + (rows[index[k], OB_VY] - velocities[w, 1]) ** 2)
 
 
-def visible(robot: tuple[float, float], rows: np.ndarray, range_max: float) -> np.ndarray:
-    """Which of the world's obstacles (rows of an obstacle list) the scanner at `robot` can see."""
-    positions = np.ascontiguousarray(rows[:, OB_X:OB_Y + 1])
-    radii = np.ascontiguousarray(rows[:, OB_RADIUS])
-    return np.array([is_visible(positions, radii, w, robot[0], robot[1], range_max) for w in range(len(rows))],
-                    dtype=bool)
-
-
 def evaluate(instants: Iterable[tuple[float, np.ndarray, np.ndarray, tuple[float, float]]], range_max: float,
              gate: float = GATE, settle: float = SETTLE, period: float = 0.1) -> TrackingFigures:
     """The figures over (stamp, track rows, world rows, robot x/y at that stamp), in time order."""
