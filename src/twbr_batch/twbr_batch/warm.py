@@ -4,7 +4,8 @@ build, so the first `make montecarlo`, `make suite` or `make demo` loads kernels
 
 Two jobs, one process each (numba compiles on one core): `batch` (the batch engine and the suite's
 avoidability check) and `nodes` (the tracker's, and the simulator's, world's, planner's and controller's
-scalar cores through the headless closed loop, as their nodes call them). The kernels land in
+scalar cores through the headless closed loop, as their nodes call them, and the dynamics' own batch step
+that bench_dynamics.py and test_dynamics call: ~60 s, beside the batch job's longer one). The kernels land in
 twbr_common.jit's cache, filed by package: compiled here from the checkout's src/, they are the ones the
 installed packages load. A job whose kernels are cached only loads them (~2 s).
 """
@@ -16,6 +17,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 JOBS = ("batch", "nodes")
 SCENARIO = "dynamic_obstacles"  # has a target, a moving one and obstacles: every kernel of a run is used
@@ -36,11 +39,15 @@ def warm_nodes() -> None:
     from twbr_batch.closed_loop import planner_reference, run_closed_loop
     from twbr_common.params import defaults
     from twbr_control.cascade import CONTROLLERS
+    from twbr_sim import dynamics
+    from twbr_sim.robot_params import robot_params
     from twbr_sim.scenario import load_scenario
     from twbr_sim.scenario_files import find_scenario
     from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
     Tracker(defaults(TRACKER_SPECS)).warm_up()
+    p = robot_params()
+    dynamics.step_batch(np.tile(p, (2, 1)), np.zeros((2, dynamics.N_STATE)), np.zeros((2, 2)), 0.001, 1)
     scenario = load_scenario(find_scenario(SCENARIO))
     for controller in CONTROLLERS:
         run_closed_loop(0.2, planner_reference(control={"controller": controller}), scenario=scenario, seed=1,
