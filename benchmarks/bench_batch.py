@@ -25,7 +25,7 @@ from results_file import write_results
 
 from twbr_batch import montecarlo as mc
 from twbr_batch.batch import run_batch
-from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 from twbr_planner.planner_params import METHODS
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
@@ -50,9 +50,9 @@ def batch_rate(scenario, n: int, seconds: float, planner: dict | None = None,
 
 def scalar_rate(scenario, seconds: float) -> float:
     """Physics steps/s of one robot through the scalar cores (the nodes' classes) in closed loop."""
-    run_closed_loop(0.1, planner_reference(), scenario=scenario, seed=1)  # compile or load the kernels first
+    run_closed_loop(0.1, PlannerReference(), scenario=scenario, seed=1)  # compile or load the kernels first
     started = time.perf_counter()
-    trace = run_closed_loop(seconds, planner_reference(), scenario=scenario, seed=1, stop_on_fall=False)
+    trace = run_closed_loop(seconds, PlannerReference(), scenario=scenario, seed=1, stop_on_fall=False)
     return (len(trace.t) - 1) * 5 / (time.perf_counter() - started)
 
 

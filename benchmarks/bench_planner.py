@@ -15,7 +15,7 @@ import time
 import numpy as np
 from results_file import write_results
 
-from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 from twbr_planner.planner import ApfPlanner
 from twbr_planner.planner_params import METHODS
 from twbr_sim.scenario import load_scenario
@@ -41,7 +41,7 @@ def step_times(scenario_name: str, method: str, duration: float) -> np.ndarray:
     ApfPlanner.step = timed
     try:
         scenario = load_scenario(find_scenario(scenario_name))
-        run_closed_loop(min(duration, scenario.duration), planner_reference({"method": method}), scenario=scenario,
+        run_closed_loop(min(duration, scenario.duration), PlannerReference({"method": method}), scenario=scenario,
                         seed=1)
     finally:
         ApfPlanner.step = original

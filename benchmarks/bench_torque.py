@@ -25,7 +25,7 @@ import sys
 import numpy as np
 from results_file import RESULTS, write_results
 
-from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop, scenario_reference
 from twbr_batch.response import step_response
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
@@ -63,7 +63,7 @@ def line_amplitude(signal: np.ndarray, rate: float, frequency: float) -> float:
 
 def torque_figures(control: dict) -> dict:
     sc = load_scenario(find_scenario("dynamic_obstacles"))
-    trace = run_closed_loop(sc.duration, planner_reference(), control, scenario=sc, seed=sc.seed,
+    trace = run_closed_loop(sc.duration, PlannerReference(), control, scenario=sc, seed=sc.seed,
                             stop=lambda sim: sim.assess().target_reached)
     rate = 1.0 / float(np.median(np.diff(trace.t)))
     out = {"sim_time_s": float(trace.t[-1])}

@@ -99,12 +99,12 @@ def test_other_seeds_reach_the_target_without_collision_or_fall(tmp_path, ros_do
 
 
 def test_static_outcome_does_not_depend_on_the_seed():
-    from twbr_batch.closed_loop import planner_reference, run_closed_loop
+    from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 
     scenario = load_scenario(find_scenario("static"))
     paths = []
     for seed in (7, *OTHER_SEEDS):
-        trace = run_closed_loop(12.0, planner_reference(), scenario=scenario, seed=seed)
+        trace = run_closed_loop(12.0, PlannerReference(), scenario=scenario, seed=seed)
         paths.append((trace.x_c[-1], trace.y_c[-1], trace["pitch"][-1]))
     assert len(set(paths)) == 1
 

@@ -8,7 +8,7 @@ import pytest
 
 from twbr_batch import batch
 from twbr_batch import montecarlo as mc
-from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 from twbr_common.params import ConfigError
 from twbr_sim.robot_params import robot_params
 from twbr_sim.scenario import load_scenario
@@ -246,7 +246,7 @@ def test_the_batch_judges_its_tracker_as_the_scalar_cores_do():
     # those of the scalar cores' run, and they judge something (a moving obstacle seen, matched, settled).
     scenario = load_scenario(find_scenario("suite/head_on"))
     planner = {"method": "robust"}
-    reference = planner_reference(planner, perception="lidar")
+    reference = PlannerReference(planner, perception="lidar")
     run_closed_loop(20.0, reference, scenario=scenario, seed=1)
     z = batch.run_batch(scenario, [1], robot_params()[None, :], planner=planner, perception="lidar",
                         duration=20.0).table[0]

@@ -10,16 +10,16 @@ import sys
 
 import pytest
 
-from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
 RUN = """
 import json, sys
-from twbr_batch.closed_loop import planner_reference, run_closed_loop
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
-trace = run_closed_loop(5.0, planner_reference(), scenario=load_scenario(find_scenario("dynamic_obstacles")), seed=7)
+trace = run_closed_loop(5.0, PlannerReference(), scenario=load_scenario(find_scenario("dynamic_obstacles")), seed=7)
 print(json.dumps({"x": float(trace.x_c[-1]), "y": float(trace.y_c[-1]), "pitch": float(trace["pitch"][-1]),
                   "numba_loaded": "numba" in sys.modules or "llvmlite" in sys.modules}))
 """
@@ -33,7 +33,7 @@ def test_the_closed_loop_interpreted_matches_the_compiled_one():
     interpreted = json.loads(done.stdout)
     assert not interpreted["numba_loaded"]
     assert "Warning" not in done.stderr, done.stderr
-    trace = run_closed_loop(5.0, planner_reference(), scenario=load_scenario(find_scenario("dynamic_obstacles")),
+    trace = run_closed_loop(5.0, PlannerReference(), scenario=load_scenario(find_scenario("dynamic_obstacles")),
                             seed=7)
     assert interpreted["x"] == pytest.approx(float(trace.x_c[-1]), abs=1e-9)
     assert interpreted["y"] == pytest.approx(float(trace.y_c[-1]), abs=1e-9)

@@ -500,7 +500,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     sensors = run[U_SENSORS] != 0.0
     estimate = run[U_ESTIMATE] != 0.0
     friction = run[U_FRICTION]
-    monitor = run[U_MONITOR] != 0.0 and radii.shape[0] > 0 and has_target  # as planner_reference
+    monitor = run[U_MONITOR] != 0.0 and radii.shape[0] > 0 and has_target  # as PlannerReference
     agents_stepped = run[U_AGENTS_STEPPED] != 0.0
     derive = reads_derivative(run)
     c = c.copy()

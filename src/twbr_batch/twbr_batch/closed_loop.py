@@ -123,9 +123,7 @@ def run_closed_loop(
                  path[:, 4], path[:, 5], path[:, 6], simulator.traction)
 
 
-def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | None = None,
-                      log: list | None = None, control: Mapping[str, Any] | None = None,
-                      perception: str = "truth", tracker: Mapping[str, Any] | None = None) -> Reference:
+class PlannerReference:
     """The APF planner core as the reference source, fed from the simulator's world at `rate` [Hz] (the
     planner node's default when None). Its settings are `planner` over what the simulator's scenario pins,
     so it is built at the first step, when the simulator is known. The controller node's collision monitor
@@ -134,29 +132,39 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
 
     `perception` "lidar": as the runner's graph with tracker_node (its parameters `tracker`), the planner
     and the monitor take the obstacles the tracker core makes of each of the simulator's scans, and the
-    planner follows the target its filter makes of the detector's looks (the target's start as its prior)."""
-    from twbr_planner.apf import Obstacles
-    from twbr_planner.planner import ApfPlanner, Target
-    from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
-    from twbr_planner.planner_params import resolve as resolve_planner
+    planner follows the target its filter makes of the detector's looks (the target's start as its prior);
+    what it saw and how well it tracked stay in `self.perception` (None on the truth)."""
 
-    resolve_planner(planner)  # refused here, before a run starts, when invalid on its own
-    rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
-    due = Decimator(rate)
-    # Each plan takes effect from the next state on, as controller_node takes a cmd_vel: the same class.
-    # No message is lost here, so the command never times out.
-    command = VelocityCommand(timeout=math.inf)
-    held: dict[str, Any] = {"core": None}
-    monitor = CollisionMonitor(resolve_controller(control))
-    seeing = LidarPerception(tracker) if perception == "lidar" else None
+    def __init__(self, planner: Mapping[str, Any] | None = None, rate: float | None = None, log: list | None = None,
+                 control: Mapping[str, Any] | None = None, perception: str = "truth",
+                 tracker: Mapping[str, Any] | None = None) -> None:
+        from twbr_planner.planner_params import NODE_SPECS as PLANNER_NODE_SPECS
+        from twbr_planner.planner_params import resolve as resolve_planner
 
-    def reference(t: float, sim: Simulator) -> tuple[float, float, float | None]:
-        if held["core"] is None:
-            held["core"] = ApfPlanner(resolve_planner(planner, sim.scenario), rate)
-        v_ref, w_ref, never_commanded = command.at(t)
+        resolve_planner(planner)  # refused here, before a run starts, when invalid on its own
+        self.planner = planner
+        self.rate = default_of(PLANNER_NODE_SPECS, "rate") if rate is None else rate
+        self.log = log
+        self.due = Decimator(self.rate)
+        # Each plan takes effect from the next state on, as controller_node takes a cmd_vel: the same class.
+        # No message is lost here, so the command never times out.
+        self.command = VelocityCommand(timeout=math.inf)
+        self.core: Any = None
+        self.monitor = CollisionMonitor(resolve_controller(control))
+        self.perception = LidarPerception(tracker) if perception == "lidar" else None
+
+    def __call__(self, t: float, sim: Simulator) -> tuple[float, float, float | None]:
+        from twbr_planner.apf import Obstacles
+        from twbr_planner.planner import ApfPlanner, Target
+        from twbr_planner.planner_params import resolve as resolve_planner
+
+        if self.core is None:
+            self.core = ApfPlanner(resolve_planner(self.planner, sim.scenario), self.rate)
+        v_ref, w_ref, never_commanded = self.command.at(t)
+        seeing = self.perception
         if seeing is not None:
-            seeing.sense(t, sim, monitor)
-        if due.due(t):
+            seeing.sense(t, sim, self.monitor)
+        if self.due.due(t):
             odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
             world = sim.world
             if seeing is not None:
@@ -168,18 +176,15 @@ def planner_reference(planner: Mapping[str, Any] | None = None, rate: float | No
                 obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in listed])
                              if world else Obstacles.empty())
                 if listed:
-                    monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
-            out = held["core"].step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
-            if log is not None:
-                log.append(out)
-            command.offer(t, out.velocity_cmd, out.yaw_rate_cmd)
+                    self.monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
+            out = self.core.step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
+            if self.log is not None:
+                self.log.append(out)
+            self.command.offer(t, out.velocity_cmd, out.yaw_rate_cmd)
         if not never_commanded:
             odom = sim.sense().encoders
-            v_ref, _ = monitor.limit(t, v_ref, odom[J_X], odom[J_Y], odom[J_YAW])
-        return v_ref, w_ref, None if never_commanded else command.since
-
-    reference.perception = seeing  # what it saw and how well it tracked, for a caller that asks
-    return reference
+            v_ref, _ = self.monitor.limit(t, v_ref, odom[J_X], odom[J_Y], odom[J_YAW])
+        return v_ref, w_ref, None if never_commanded else self.command.since
 
 
 class LidarPerception:
@@ -219,14 +224,14 @@ class LidarPerception:
         pitch = sim.state[dyn.S_TH]  # odom's orientation carries the true pitch
         if self._scan_due.due(t):
             s = sim.lidar_settings
-            ranges = sim.scan().astype(np.float32).astype(np.float64)
+            positions, velocities, radii = sim.obstacle_arrays()  # the scan's and the judge's
+            ranges = sim.scan((positions, velocities, radii)).astype(np.float32).astype(np.float64)
             self.rows = self.tracker.step_rows(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
                                                float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
                                                float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X],
                                                odom[J_Y], odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
             self.stamp = t
             monitor.obstacles(t, self.rows)
-            positions, velocities, radii = sim.obstacle_arrays()
             if self._last_track is None:
                 self._last_track = np.full(len(radii), -1.0)
             state = sim.state

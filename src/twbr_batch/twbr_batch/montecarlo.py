@@ -195,15 +195,15 @@ def run_one_traced(scenario_path: str, seed: int, perturbation: float,
                    planner: Mapping[str, Any] | None = None, sensors: str = "ideal",
                    controller: str = "pid", perception: str = "truth") -> tuple[StudyRow, Any]:
     """run_one, and the run's closed_loop.Trace; `planner`: planner parameters other than the defaults;
-    `perception`: what the planner sees (closed_loop.planner_reference's)."""
-    from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
+    `perception`: what the planner sees (closed_loop.PlannerReference's)."""
+    from twbr_batch.closed_loop import PlannerReference, run_closed_loop, scenario_reference
     from twbr_planner.apf import Mode
 
     scenario = load_scenario(Path(scenario_path))
     factors = perturbation_factors(seed, perturbation)
     robot = perturbed_robot(factors)
     planner_log: list = []
-    plan = planner_reference(planner, rate=PLANNER_RATE, log=planner_log, perception=perception)
+    plan = PlannerReference(planner, rate=PLANNER_RATE, log=planner_log, perception=perception)
     command = scenario_reference(scenario)
     world = {"reached_at": None, "min_clearance": math.inf, "collisions": 0}
     world_due = Decimator(WORLD_RATE)

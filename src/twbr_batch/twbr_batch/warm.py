@@ -36,7 +36,7 @@ def warm_batch() -> None:
 
 
 def warm_nodes() -> None:
-    from twbr_batch.closed_loop import planner_reference, run_closed_loop
+    from twbr_batch.closed_loop import PlannerReference, run_closed_loop
     from twbr_common.params import defaults
     from twbr_control.cascade import CONTROLLERS
     from twbr_sim import dynamics
@@ -50,7 +50,7 @@ def warm_nodes() -> None:
     dynamics.step_batch(np.tile(p, (2, 1)), np.zeros((2, dynamics.N_STATE)), np.zeros((2, 2)), 0.001, 1)
     scenario = load_scenario(find_scenario(SCENARIO))
     for controller in CONTROLLERS:
-        run_closed_loop(0.2, planner_reference(control={"controller": controller}), scenario=scenario, seed=1,
+        run_closed_loop(0.2, PlannerReference(control={"controller": controller}), scenario=scenario, seed=1,
                         control={"controller": controller})
 
 

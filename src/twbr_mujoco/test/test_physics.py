@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from twbr_batch.closed_loop import planner_reference, run_closed_loop, scenario_reference
+from twbr_batch.closed_loop import PlannerReference, run_closed_loop, scenario_reference
 from twbr_batch.response import step_response
 from twbr_common.params import ConfigError, defaults
 from twbr_mujoco.model import CHASSIS, LEFT_WHEEL, MUJOCO_SPECS
@@ -154,7 +154,7 @@ def test_the_navigation_scenarios_reach_their_targets(name):
             return True
         return False
 
-    trace = run_closed_loop(scenario.duration, planner_reference(), scenario=scenario, stop=stop,
+    trace = run_closed_loop(scenario.duration, PlannerReference(), scenario=scenario, stop=stop,
                             engine=mujoco_simulator, seed=scenario.seed)
     assert not trace.fallen
     assert "t" in reached, f"{name}: target not reached in {scenario.duration} s"

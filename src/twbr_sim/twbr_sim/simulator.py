@@ -176,11 +176,12 @@ class Simulator:
                 np.array([(o.vx, o.vy) for o in obstacles], dtype=float).reshape(-1, 2),
                 np.array([o.radius for o in obstacles], dtype=float))
 
-    def scan(self) -> np.ndarray:
+    def scan(self, obstacles: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """One LiDAR scan started at the current state (lidar.py): ranges [m] by beam, the device's noise
-        and dropouts included, REP 117's -inf / +inf outside its range."""
+        and dropouts included, REP 117's -inf / +inf outside its range. `obstacles`: obstacle_arrays() now,
+        if the caller has them already."""
         s = self.state
-        positions, velocities, radii = self.obstacle_arrays()
+        positions, velocities, radii = self.obstacle_arrays() if obstacles is None else obstacles
         ranges = np.empty(int(self.lidar_settings[lidar.LD_BEAMS]))
         lidar.cast_scan(self.lidar_settings, s[dyn.S_XC], s[dyn.S_YC], s[dyn.S_PSI], s[dyn.S_TH], s[dyn.S_XD],
                         s[dyn.S_PSID], self.p[P_R], positions, velocities, radii, ranges)
