@@ -5,7 +5,8 @@ simulator's, remapped to `obstacles_truth` by the runner), the tracks are matche
 obstacles by the Hungarian method on the distance between centres, within `gate` (the tracker's own
 assignment kernel), after each obstacle has kept the track it was last matched to if that track is still
 within `gate` of it (CLEAR-MOT's correspondence rule: people passing through each other are not switches
-because the nearest track changed for a moment). Walls' discs (ids from WALL_IDS) are the wall's, not tracks, and are left out.
+because the nearest track changed for a moment). Walls' discs (ids from WALL_IDS) are the wall's, not
+tracks, and are left out.
 Judged on the world's moving obstacles that are *visible*: within `range_max` of the robot and with no
 other obstacle's disc across the line from the robot to their centre (CLEAR-MOT's rules, Bernardin &
 Stiefelhagen 2008, on our discs):
@@ -151,9 +152,7 @@ def judge_lists(judge, born, last_track, stamp, rows, count, positions, velociti
         r = index[k]
         for w in range(m):
             cost[k, w] = math.hypot(rows[r, OB_X] - positions[w, 0], rows[r, OB_Y] - positions[w, 1])
-    # CLEAR-MOT's first rule: an obstacle keeps the track it was last matched to while that track is
-    # within the gate; only the rest go to the assignment (two people passing through each other are not
-    # two switches because the nearest track changed for an instant)
+    # the correspondence rule (module docstring): kept pairs first, the rest to the assignment
     kept = np.full(n, -1, dtype=np.int64)
     held = np.zeros(m, dtype=np.bool_)
     for w in range(m):
