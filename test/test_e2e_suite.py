@@ -1,5 +1,6 @@
 """The hard suite through the node graph: each scenario for one seed with the robust planner, against the
-batch engine's run of the same seed (the same cores: the same path).
+batch engine's run of the same seed (the same cores and the messages' roundings: the same path to the last
+bit).
 
 The runner starts recorder, controller_node, planner_node (method robust) and sim_node as processes in
 lockstep; the seed's varied layout is built by the simulator's world exactly as the batch engine builds
@@ -19,7 +20,7 @@ import numpy as np
 import pytest
 from conftest import RUNNER
 
-from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, Z_SIM_TIME, Z_TORQUE_STEP_MAX, Z_TRACKING, run_batch
+from twbr_batch.batch import Z_COLLISIONS, Z_REACHED_AT, Z_TORQUE_STEP_MAX, Z_TRACKING, run_batch
 from twbr_batch.suite import SCAN_PERIOD, TIME_LIMIT
 from twbr_runner.bag_reader import read_messages
 from twbr_runner.metrics import series_from_messages
@@ -57,43 +58,37 @@ def test_a_suite_scenario_through_the_graph_takes_the_batch_engines_path(tmp_pat
 
 def assert_the_graph_took_the_batch_engines_path(run_dir, m: dict, scenario, seed: int, perception: str) -> None:
     """A graph run (its run directory and metrics.json) against the batch engine's run of the same layout,
-    seed and perception (the robust method): outcome, jolts, the path, and on the LiDAR the tracker judged."""
-    name = scenario.name
+    seed and perception (the robust method): the same path to the last bit at every odom sample, so the same
+    outcome, jolts and, on the LiDAR, the same tracker figures. The nodes read every value from a message
+    (a stamp, a quaternion, a target's heading and speed, a detection's point); the batch engine applies the
+    same read-backs (twbr_common.wire). Without them a last bit turned into another path where the robust
+    method's decision sat on its threshold (suite/trap_wedge on the LiDAR, seed 1: apart after 24 s, the
+    graph reaching at 51.8 s, the batch never)."""
     batch = run_batch(scenario, [seed], robot_params()[None, :], planner={"method": "robust"},
                       duration=min(scenario.duration, TIME_LIMIT), record=True, perception=perception)
     z = batch.table[0]
     path = batch.trace(0)
+    assert m["lockstep_timeouts"] == 0  # (a late command would be another run: the graph's, not the batch's)
+    odom = series_from_messages(read_messages(run_dir / "bag", ["/odom", "/clock"]))
+    samples = np.rint(odom.odom_t / (path["t"][1] - path["t"][0])).astype(int)  # the trace's sample of each
+    shared = samples < len(path["t"])
+    assert shared.sum() >= min(len(samples), len(path["t"])) - 1, (len(samples), len(path["t"]))
+    gaps = np.hypot(odom.x_c[shared] - path["x_c"][samples[shared]], odom.y_c[shared] - path["y_c"][samples[shared]])
+    if gaps.any():
+        first = int(np.flatnonzero(gaps)[0])
+        late_worlds = (run_dir / "logs" / "planner.err").read_text().count("within world_wait")
+        raise AssertionError(f"{scenario.name} on {perception}: the graph left the batch's path at t ="
+                             f" {odom.odom_t[shared][first]:.3f} s (by {gaps[first]:.2e} m; {gaps.max():.3f} m at"
+                             f" most); planner warnings of a world late: {late_worlds}")
     assert m["reached"] == (not math.isnan(z[Z_REACHED_AT])), m
     assert m["collisions"] == z[Z_COLLISIONS]
-    assert m["lockstep_timeouts"] == 0
     if m["reached"]:
-        assert m["time_to_reach_s"] == pytest.approx(z[Z_REACHED_AT], rel=0.1)
+        assert m["time_to_reach_s"] == pytest.approx(z[Z_REACHED_AT], abs=1e-9)
     # the motors' largest jolt, from the bag's controller_state as from the batch engine's run
-    assert m["torque_step_max_nm"] == pytest.approx(z[Z_TORQUE_STEP_MAX], rel=0.25)
-    gaps = []
-    # The path, each second, within 5 cm of the batch engine's for the first 15 s: the graph runs the same
-    # kernels on the same states, but the yaw it reads back from odom's quaternion (and obstacles moved to the
-    # odom stamp) differ from the batch's in the last bit, and the robust method's switches (boundary
-    # following, the way round) amplify that where a decision is on its threshold. Measured over every
-    # suite scenario, seed 1, with an earlier tuning of the method: 10 of 15 within 2 cm to the end; three
-    # within 12 cm; three apart by 5 cm after 18-27 s and by up to 2.2 m later, reaching the target at
-    # most 6 % apart.
-    odom = series_from_messages(read_messages(run_dir / "bag", ["/odom", "/clock"]))
-    end = min(float(path["t"][-1]), float(odom.odom_t[-1])) - 1.0
-    for second in np.arange(1.0, end):
-        i = int(np.argmin(np.abs(path["t"] - second)))
-        j = int(np.argmin(np.abs(odom.odom_t - second)))
-        assert abs(odom.odom_t[j] - second) <= 0.02, second
-        gaps.append(math.hypot(odom.x_c[j] - path["x_c"][i], odom.y_c[j] - path["y_c"][i]))
-    assert max(gaps[:15]) < 0.05, (name, gaps[:15])
-    if perception == "lidar":  # the tracker judged by the same kernel at the same scans of nearly the same run
+    assert m["torque_step_max_nm"] == pytest.approx(z[Z_TORQUE_STEP_MAX], rel=1e-12)
+    if perception == "lidar":  # the tracker judged by the same kernel at the same scans of the same run
         figures = TrackingFigures.of(z[Z_TRACKING:Z_TRACKING + N_JUDGE], SCAN_PERIOD).as_dict()
         graph = m["tracking"]
-        # a list at every scan of each run (they may end a little apart: the paths part after 15 s)
-        assert graph["instants"] == pytest.approx(m["sim_time_s"] / SCAN_PERIOD, abs=2), (graph, m["sim_time_s"])
-        assert figures["instants"] == pytest.approx(z[Z_SIM_TIME] / SCAN_PERIOD, abs=2), (figures, z[Z_SIM_TIME])
-        assert graph["judged"] == pytest.approx(figures["judged"], rel=0.05, abs=2), (graph, figures)
-        for key in ("position_rmse_m", "velocity_rmse_mps"):
-            assert (graph[key] is None) == (figures[key] is None), key
-            if figures[key] is not None:
-                assert graph[key] == pytest.approx(figures[key], rel=0.2, abs=0.005), (key, graph, figures)
+        assert figures["instants"] == pytest.approx(m["sim_time_s"] / SCAN_PERIOD, abs=1.5), figures  # every scan
+        for key, value in figures.items():
+            assert graph[key] == (None if value is None else pytest.approx(value, rel=1e-9)), (key, graph, figures)

@@ -35,6 +35,14 @@ from twbr_common.jit import (
 from twbr_common.layout import Layout
 from twbr_common.params import ConfigError, default_of, defaults, validate_all
 from twbr_common.timing import is_due, next_due, takes_effect
+from twbr_common.wire import (
+    detection_read_back,
+    heading_speed,
+    pitch_yaw_read_back,
+    stamp_seconds_of,
+    step_nanoseconds,
+    target_velocity_read_back,
+)
 from twbr_control.cascade import K_ENABLED, O_LEFT, O_RIGHT, O_VELOCITY_REF, O_YAW_RATE_REF, cascade_compute
 from twbr_control.cascade import N_OUTPUTS as N_CONTROL_OUTPUTS
 from twbr_control.cascade import N_STATE as N_CONTROL_STATE
@@ -88,7 +96,7 @@ from twbr_sim.encoders import J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE, encoder_s
 from twbr_sim.encoders import N_OUTPUTS as N_ENCODER_OUTPUTS
 from twbr_sim.encoders import new_memory as new_encoder_memory
 from twbr_sim.encoders import settings_vector as encoder_vector
-from twbr_sim.imu import IMU_STREAM, N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, imu_init, imu_sample
+from twbr_sim.imu import IMU_STREAM, N_READING, RD_ACCEL, RD_GYRO, RD_PITCH, RD_ROLL, RD_YAW, imu_init, imu_sample
 from twbr_sim.imu import new_memory as new_imu_memory
 from twbr_sim.imu import settings_vector as imu_vector
 from twbr_sim.noise import new_generator
@@ -146,13 +154,14 @@ PHYSICS_RATE = default_of(SIM_SPECS, "physics_rate")  # [Hz]
 # there is a target and the run ends on it, the target's speed [m/s], turn interval [s] and capture
 # radius [m], and the rows of the planner's progress ring.
 RUN_LAYOUT = Layout((
-    "h", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
+    "h", "step_ns", "steps_per_control", "n_samples", "planner_period", "world_period", "has_target", "end_on_target",
     "target_speed", "turn_interval", "capture_radius", "ring_rows", "sensors", "estimate", "friction",
     "monitor", "footprint", "stop_margin", "deceleration", "reaction_time", "agents_stepped", "lidar",
     "scan_period", "look_period", "axle_height", "lidar_height", "scan_angle_min", "scan_angle_increment",
     "scan_time_increment",
 ))
 U_H = RUN_LAYOUT["h"]
+U_STEP_NS = RUN_LAYOUT["step_ns"]  # a physics step [ns], as the stamps count it
 U_STEPS_PER_CONTROL = RUN_LAYOUT["steps_per_control"]
 U_N_SAMPLES = RUN_LAYOUT["n_samples"]
 U_PLANNER_PERIOD = RUN_LAYOUT["planner_period"]
@@ -496,6 +505,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     look = np.empty(2)
     fused = np.empty(N_ESTIMATE)
     h = run[U_H]
+    step_ns = int(run[U_STEP_NS])
     has_target = run[U_HAS_TARGET] != 0.0
     sensors = run[U_SENSORS] != 0.0
     estimate = run[U_ESTIMATE] != 0.0
@@ -510,19 +520,21 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
         step_count = results[j, Z_PHYSICS_STEPS]
         k = int(step_count) // int(run[U_STEPS_PER_CONTROL])  # the samples before this one
         t = step_count * h
+        ts = stamp_seconds_of(int(step_count) * step_ns)  # t as the nodes read the state's stamp
         x = states[j, S_XC]  # the truth, for the world's assessment
         y = states[j, S_YC]
-        pitch = states[j, S_TH]  # an ideal IMU on the axle: the body's pitch and pitch rate
+        # an ideal IMU on the axle: the body's pitch (from the imu's quaternion) and pitch rate
+        pitch, _imu_yaw = pitch_yaw_read_back(0.0, states[j, S_TH], states[j, S_PSI])
         pitch_rate = states[j, S_THD]
         odom_x = x  # what odom says, for the planner and the velocity loop
         odom_y = y
         odom_yaw = states[j, S_PSI]
         odom_velocity = states[j, S_XD]
         yaw_rate = states[j, S_PSID]
-        if has_target and loop[j, L_NEW_PLAN] != 0.0 and takes_effect(loop[j, L_PLAN_STAMP], t):
+        if has_target and loop[j, L_NEW_PLAN] != 0.0 and takes_effect(loop[j, L_PLAN_STAMP], ts):
             loop[j, L_V_REF] = loop[j, L_NEXT_V]  # as controller_node takes a cmd_vel (VelocityCommand)
             loop[j, L_W_REF] = loop[j, L_NEXT_W]
-            loop[j, L_COMMAND_STAMP] = t
+            loop[j, L_COMMAND_STAMP] = ts
             loop[j, L_NEW_PLAN] = 0.0
             loop[j, L_COMMANDED] = 1.0
         derived = loop[j, L_DERIVED] != 0.0  # by the physics, in lanes
@@ -537,13 +549,29 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             odom_yaw = odometry[j, J_YAW]
             odom_velocity = odometry[j, J_VELOCITY]
             yaw_rate = odometry[j, J_YAW_RATE]
-            pitch = reading[j, RD_PITCH]
+            pitch, _imu_yaw = pitch_yaw_read_back(reading[j, RD_ROLL], reading[j, RD_PITCH], reading[j, RD_YAW])
             pitch_rate = reading[j, RD_GYRO + 1]
             if estimate:
-                estimator_update(estimator_q, estimator_m[j], t, pitch_rate, reading[j, RD_ACCEL],
+                estimator_update(estimator_q, estimator_m[j], ts, pitch_rate, reading[j, RD_ACCEL],
                                  reading[j, RD_ACCEL + 2], odom_velocity)
                 pitch = estimator_m[j, E_PITCH]
                 pitch_rate = estimator_m[j, E_PITCH_RATE]
+        # odom's orientation (the true pitch, odom's yaw) as the planner, tracker and monitor read it
+        odom_pitch, odom_yaw = pitch_yaw_read_back(0.0, states[j, S_TH], odom_yaw)
+        v_ref = loop[j, L_V_REF]
+        if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor, on the list
+            # of before this state (CollisionMonitor: a list applies from the state after its stamp)
+            if lidar_on:  # on the tracker's list
+                count = int(loop[j, L_SEEN_COUNT])
+                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, seen_positions[j, :count],
+                                      seen_velocities[j, :count], seen_radii[j, :count], ts - loop[j, L_SEEN_T],
+                                      run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION], run[U_REACTION_TIME])
+            else:  # on the world's
+                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], velocities[j], radii,
+                                      ts - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN],
+                                      run[U_DECELERATION], run[U_REACTION_TIME])
+            if v_ref != loop[j, L_V_REF]:
+                results[j, Z_COLLISION_LIMITED] += 1
         if friction > 0.0:
             if not derived:
                 wheel_loads(params[j], states[j], derivative[j], loads[j])
@@ -563,7 +591,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
         if is_due(t, loop[j, L_WORLD_NEXT]):  # the world's assessment, at the world rate
             loop[j, L_WORLD_NEXT] = next_due(t, loop[j, L_WORLD_NEXT], run[U_WORLD_PERIOD])
             agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
-            loop[j, L_WORLD_T] = t
+            loop[j, L_WORLD_T] = ts  # the stamp of the world message
             collisions_before = tally[j, W_COLLISIONS]
             clearance, hit = assess_obstacles(positions[j], radii, params[j, P_ROBOT_RADIUS], x, y, tally[j])
             results[j, Z_MIN_CLEARANCE] = min(results[j, Z_MIN_CLEARANCE], clearance)
@@ -587,8 +615,8 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             for b in range(beams):
                 ranges[b] = np.float32(ranges[b])  # as a LaserScan carries them
             count = tracker_scan(detection_d, tracking_k, walls_w, tracks[j], track_cov[j], walls[j], track_counters[j],
-                                 t, ranges, run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
-                                 odom_x, odom_y, odom_yaw, odom_velocity, yaw_rate, states[j, S_TH],
+                                 ts, ranges, run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
+                                 odom_x, odom_y, odom_yaw, odom_velocity, yaw_rate, odom_pitch,
                                  run[U_AXLE_HEIGHT], run[U_LIDAR_HEIGHT], discs, rows)
             for r in range(count):
                 seen_positions[j, r, 0] = rows[r, 1]
@@ -597,31 +625,30 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
                 seen_velocities[j, r, 1] = rows[r, 4]
                 seen_radii[j, r] = rows[r, 5]
             loop[j, L_SEEN_COUNT] = count
-            judge_lists(results[j, Z_TRACKING:Z_TRACKING + N_JUDGE], track_born[j], track_judged[j], t, rows, count,
+            judge_lists(results[j, Z_TRACKING:Z_TRACKING + N_JUDGE], track_born[j], track_judged[j], ts, rows, count,
                         positions[j], velocities[j], radii, x, y, lidar_s[lidar.LD_RANGE_MAX], GATE, SETTLE)
-            loop[j, L_SEEN_T] = t
+            loop[j, L_SEEN_T] = ts
         if looks and has_target and is_due(t, loop[j, L_LOOK_NEXT]):  # the detector's look, fused
             loop[j, L_LOOK_NEXT] = next_due(t, loop[j, L_LOOK_NEXT], run[U_LOOK_PERIOD])
             tx, ty, _heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
             agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
             if measure_target(look_s, look_generators[j], x, y, states[j, S_PSI], states[j, S_TH], tx, ty,
                               positions[j], radii, look):
-                # (the graph's PoseArray, x ahead and y left, read back as range and bearing, rounds them
-                # in the last bit, by Python's libm rather than the compiled one: left out here and in the
-                # scalar cores alike)
-                target_measure(target_s[j], target_memory[j], target_cov[j], t, look[0], look[1], odom_x, odom_y,
-                               odom_yaw, states[j, S_TH])
-            known = target_estimate(target_s[j], target_memory[j], target_cov[j], t, fused)
+                distance, bearing = detection_read_back(look[0], look[1])  # from the PoseArray it is sent as
+                target_measure(target_s[j], target_memory[j], target_cov[j], ts, distance, bearing, odom_x, odom_y,
+                               odom_yaw, odom_pitch)
+            known = target_estimate(target_s[j], target_memory[j], target_cov[j], ts, fused)
             loop[j, L_TARGET_KNOWN] = 1.0 if known else 0.0
             if known:
                 loop[j, L_TARGET_X] = fused[0]
                 loop[j, L_TARGET_Y] = fused[1]
-                loop[j, L_TARGET_VX] = fused[2]
-                loop[j, L_TARGET_VY] = fused[3]
+                heading, speed = heading_speed(fused[2], fused[3])  # the target's odometry, as the planner reads it
+                loop[j, L_TARGET_VX], loop[j, L_TARGET_VY] = target_velocity_read_back(heading, speed)
         if has_target:
             if is_due(t, loop[j, L_PLAN_NEXT]):  # the planner, at its rate, on the world at time t
                 loop[j, L_PLAN_NEXT] = next_due(t, loop[j, L_PLAN_NEXT], run[U_PLANNER_PERIOD])
-                tx, ty, _heading, tvx, tvy = target_at(segments[j], run[U_TARGET_SPEED], t)
+                tx, ty, heading, _vx, _vy = target_at(segments[j], run[U_TARGET_SPEED], t)
+                tvx, tvy = target_velocity_read_back(heading, run[U_TARGET_SPEED])  # the world's target message
                 if looks:  # the fused target of the last look (a runner's tracker always has a prior)
                     tx = loop[j, L_TARGET_X]
                     ty = loop[j, L_TARGET_Y]
@@ -630,22 +657,22 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
                 agents_at(agents[j], agent_state[j], loop[j, L_AGENT_STEPS], t, positions[j], velocities[j])
                 if lidar_on:  # the last scan's obstacles moved to now, as planner_node moves them
                     count = int(loop[j, L_SEEN_COUNT])
-                    age = max(0.0, t - loop[j, L_SEEN_T])
+                    age = max(0.0, ts - loop[j, L_SEEN_T])
                     for r in range(count):
                         plan_positions[j, r, 0] = seen_positions[j, r, 0] + seen_velocities[j, r, 0] * age
                         plan_positions[j, r, 1] = seen_positions[j, r, 1] + seen_velocities[j, r, 1] * age
-                    plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
+                    plan_step(a, memory[j], ring[j], plan_out[j], ts, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
                               tvx, tvy, plan_positions[j, :count], seen_velocities[j, :count], seen_radii[j, :count],
                               seen_distances[j, :count])
                     # the world's obstacles' clearances, for the avoidability check's bookkeeping below
                     clearances(odom_x, odom_y, positions[j], radii, a[A_ROBOT_RADIUS], distances[j])
                 else:
-                    plan_step(a, memory[j], ring[j], plan_out[j], t, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
+                    plan_step(a, memory[j], ring[j], plan_out[j], ts, odom_x, odom_y, odom_yaw, odom_velocity, tx, ty,
                               tvx, tvy, positions[j], velocities[j], radii, distances[j])
                 loop[j, L_NEXT_V] = plan_out[j, Q_V]
                 loop[j, L_NEXT_W] = plan_out[j, Q_OMEGA]
                 loop[j, L_NEW_PLAN] = 1.0
-                loop[j, L_PLAN_STAMP] = t
+                loop[j, L_PLAN_STAMP] = ts
                 stuck = plan_out[j, Q_MODE] == STUCK
                 results[j, Z_STUCK_AT_END] = 1.0 if stuck else 0.0
                 if stuck:
@@ -665,22 +692,9 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             v_ref, w_ref = command_profile_at(profile[0], profile[1], profile[2], t)
             loop[j, L_V_REF] = v_ref
             loop[j, L_W_REF] = w_ref
-            loop[j, L_COMMAND_STAMP] = t  # a command profile: a command at every sample
+            loop[j, L_COMMAND_STAMP] = ts  # a command profile: a command at every sample
         hold = estimate and estimator_m[j, E_CALIBRATING] != 0.0
-        v_ref = loop[j, L_V_REF]
-        if monitor and loop[j, L_COMMANDED] != 0.0:  # the controller node's collision monitor
-            if lidar_on:  # on the tracker's list
-                count = int(loop[j, L_SEEN_COUNT])
-                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, seen_positions[j, :count],
-                                      seen_velocities[j, :count], seen_radii[j, :count], t - loop[j, L_SEEN_T],
-                                      run[U_FOOTPRINT], run[U_STOP_MARGIN], run[U_DECELERATION], run[U_REACTION_TIME])
-            else:  # on the world's
-                v_ref = allowed_speed(v_ref, odom_x, odom_y, odom_yaw, positions[j], velocities[j], radii,
-                                      t - loop[j, L_WORLD_T], run[U_FOOTPRINT], run[U_STOP_MARGIN],
-                                      run[U_DECELERATION], run[U_REACTION_TIME])
-            if v_ref != loop[j, L_V_REF]:
-                results[j, Z_COLLISION_LIMITED] += 1
-        cascade_compute(c, control[j], control_out[j], t, v_ref, loop[j, L_W_REF], velocity, yaw_rate, pitch,
+        cascade_compute(c, control[j], control_out[j], ts, v_ref, loop[j, L_W_REF], velocity, yaw_rate, pitch,
                         pitch_rate, loop[j, L_COMMANDED] == 0.0, hold, loop[j, L_COMMAND_STAMP])
         true_pitch = states[j, S_TH]
         results[j, Z_PITCH_MIN] = min(results[j, Z_PITCH_MIN], true_pitch)
@@ -700,7 +714,7 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             traces[j, k, T_YAW_RATE_REF] = control_out[j, O_YAW_RATE_REF]
             traces[j, k, T_PITCH_TRUE] = true_pitch
             traces[j, k, T_VELOCITY_TRUE] = states[j, S_XD]
-        results[j, Z_SIM_TIME] = t
+        results[j, Z_SIM_TIME] = ts  # as the last state's stamp reads (the graph's sim_time_s)
         results[j, Z_SAMPLES] = k + 1
         torque_limit = torque_limits[j]
         left = min(max(control_out[j, O_LEFT], -torque_limit), torque_limit)  # the motor driver's limit
@@ -904,7 +918,8 @@ def run_batch(
     radii = np.array([o.radius for o in sc.obstacles], dtype=float)
     profile = np.ascontiguousarray(np.stack(command_profile(sc)))
     run = RUN_LAYOUT.pack({
-        "h": 1.0 / physics_rate, "steps_per_control": steps_per_control, "n_samples": n_samples,
+        "h": 1.0 / physics_rate, "step_ns": step_nanoseconds(physics_rate), "steps_per_control": steps_per_control,
+        "n_samples": n_samples,
         "planner_period": 1.0 / planner_rate, "world_period": 1.0 / world_rate, "has_target": tgt is not None,
         "end_on_target": sc.end_on_target, "target_speed": tgt.speed if tgt else 0.0,
         "turn_interval": tgt.turn_interval if tgt else 1.0, "capture_radius": tgt.capture_radius if tgt else 0.0,

@@ -16,6 +16,13 @@ import numpy as np
 
 from twbr_common.params import default_of, defaults, validate_all
 from twbr_common.timing import Decimator
+from twbr_common.wire import (
+    detection_read_back,
+    heading_speed,
+    pitch_yaw_read_back,
+    stamp_seconds_of,
+    target_velocity_read_back,
+)
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.collision_monitor import CollisionMonitor
 from twbr_control.controller_params import resolve as resolve_controller
@@ -29,7 +36,7 @@ from twbr_sim.scenario import Scenario, command_at
 from twbr_sim.simulator import SIM_SPECS, Simulator, TractionTally
 
 # (velocity_ref, yaw_rate_ref) at sim time t, given the simulator (for planners that read the state); a planner
-# adds the sample its command applies from (the cascade's command_stamp), else every sample is a new command.
+# adds the stamp its command applies from (the cascade's command_stamp), else every sample is a new command.
 Reference = Callable[[float, Simulator], tuple[float, ...]]
 # A robot from (robot parameters by name, simulator settings, scenario, seed): the ideal model by default,
 # or another physics engine behind the same interface (twbr_mujoco.physics.MujocoSimulator).
@@ -91,20 +98,22 @@ def run_closed_loop(
     path = np.empty((n, 7))
     for k in range(n):
         t = simulator.time
+        stamp = stamp_seconds_of(simulator.stamp_ns)  # what the controller reads (twbr_common.wire)
         s = simulator.state
         sample = simulator.sense()
         reading, odom = sample.imu, sample.encoders  # what the imu and odom messages carry
         velocity, yaw_rate = odom[J_VELOCITY], odom[J_YAW_RATE]
-        pitch, pitch_rate = reading.pitch, reading.angular_velocity[1]
+        pitch, _ = pitch_yaw_read_back(reading.roll, reading.pitch, reading.yaw)  # from the imu's quaternion
+        pitch_rate = reading.angular_velocity[1]
         if estimate:
-            pitch, pitch_rate = estimator.update(t, pitch_rate, reading.linear_acceleration[0],
+            pitch, pitch_rate = estimator.update(stamp, pitch_rate, reading.linear_acceleration[0],
                                                  reading.linear_acceleration[2], velocity)
             velocity = estimator.velocity
         # (v, omega[, the sample from which they apply, None before any command: cmd_vel stale, as in the graph])
         v_ref, w_ref, *since = reference(t, simulator)
-        out = controller.compute(t, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
+        out = controller.compute(stamp, v_ref, w_ref, velocity, yaw_rate, pitch, pitch_rate,
                                  cmd_vel_stale=bool(since) and since[0] is None,
-                                 hold=estimate and estimator.calibrating, command_stamp=since[0] if since else t)
+                                 hold=estimate and estimator.calibrating, command_stamp=since[0] if since else stamp)
         if estimate:
             out = replace(out, pitch_estimated=True, gyro_bias=estimator.bias,
                           accelerometer_pitch=estimator.accelerometer_pitch)
@@ -155,36 +164,51 @@ class PlannerReference:
 
     def __call__(self, t: float, sim: Simulator) -> tuple[float, float, float | None]:
         from twbr_planner.apf import Obstacles
-        from twbr_planner.planner import ApfPlanner, Target
+        from twbr_planner.planner import ApfPlanner
         from twbr_planner.planner_params import resolve as resolve_planner
 
         if self.core is None:
             self.core = ApfPlanner(resolve_planner(self.planner, sim.scenario), self.rate)
-        v_ref, w_ref, never_commanded = self.command.at(t)
+        stamp = stamp_seconds_of(sim.stamp_ns)  # the nodes' time: the state's stamp read back (twbr_common.wire)
+        v_ref, w_ref, never_commanded = self.command.at(stamp)
         seeing = self.perception
         if seeing is not None:
-            seeing.sense(t, sim, self.monitor)
-        if self.due.due(t):
-            odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
+            seeing.sense(stamp, sim, self.monitor)
+        odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
+        _, yaw = odom_orientation(sim)
+        if self.due.due(stamp):
             world = sim.world
             if seeing is not None:
-                target, obstacles = seeing.target(sim), seeing.obstacles_at(t)
+                target, obstacles = seeing.target(sim), seeing.obstacles_at(stamp)
             else:
-                state = world.target() if world is not None else None
-                target = Target(state.x, state.y, *state.velocity) if state is not None else None
+                target = world_target(sim)
                 listed = world.obstacles() if world else []
                 obstacles = (Obstacles.of([(o.id, o.x, o.y, o.radius, o.vx, o.vy) for o in listed])
                              if world else Obstacles.empty())
                 if listed:
-                    self.monitor.obstacles(t, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
-            out = self.core.step(t, odom[J_X], odom[J_Y], odom[J_YAW], odom[J_VELOCITY], target, obstacles)
+                    self.monitor.obstacles(stamp, np.array([(o.id, o.x, o.y, o.vx, o.vy, o.radius) for o in listed]))
+            out = self.core.step(stamp, odom[J_X], odom[J_Y], yaw, odom[J_VELOCITY], target, obstacles)
             if self.log is not None:
                 self.log.append(out)
-            self.command.offer(t, out.velocity_cmd, out.yaw_rate_cmd)
+            self.command.offer(stamp, out.velocity_cmd, out.yaw_rate_cmd)
         if not never_commanded:
-            odom = sim.sense().encoders
-            v_ref, _ = self.monitor.limit(t, v_ref, odom[J_X], odom[J_Y], odom[J_YAW])
+            v_ref, _ = self.monitor.limit(stamp, v_ref, odom[J_X], odom[J_Y], yaw)
         return v_ref, w_ref, None if never_commanded else self.command.since
+
+
+def odom_orientation(sim: Simulator) -> tuple[float, float]:
+    """(pitch, yaw) [rad] as the nodes read them from odom's quaternion: the true pitch and odom's yaw."""
+    return pitch_yaw_read_back(0.0, sim.state[dyn.S_TH], sim.sense().encoders[J_YAW])
+
+
+def world_target(sim: Simulator) -> Any:
+    """The world's target as planner_node reads its message (heading in a quaternion, and a speed)."""
+    from twbr_planner.planner import Target
+
+    state = sim.world.target() if sim.world is not None else None
+    if state is None:
+        return None
+    return Target(state.x, state.y, *target_velocity_read_back(state.heading, state.speed))
 
 
 class LidarPerception:
@@ -221,7 +245,7 @@ class LidarPerception:
             self._scan_due = Decimator(sim.lidar_rate)
             self._look_due = Decimator(sim.target_sensor_rate) if sim.target_sensor_rate > 0.0 else None
         odom = sim.sense().encoders
-        pitch = sim.state[dyn.S_TH]  # odom's orientation carries the true pitch
+        pitch, yaw = odom_orientation(sim)
         if self._scan_due.due(t):
             s = sim.lidar_settings
             positions, velocities, radii = sim.obstacle_arrays()  # the scan's and the judge's
@@ -229,7 +253,7 @@ class LidarPerception:
             self.rows = self.tracker.step_rows(t, ranges, float(np.float32(s[lidar.LD_ANGLE_MIN])),
                                                float(np.float32(s[lidar.LD_ANGLE_INCREMENT])),
                                                float(np.float32(1.0 / sim.lidar_rate / s[lidar.LD_BEAMS])), odom[J_X],
-                                               odom[J_Y], odom[J_YAW], odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
+                                               odom[J_Y], yaw, odom[J_VELOCITY], odom[J_YAW_RATE], pitch)
             self.stamp = t
             monitor.obstacles(t, self.rows)
             if self._last_track is None:
@@ -242,19 +266,15 @@ class LidarPerception:
                 start = sim.world.target()
                 self.filter = TargetFilter({**self.cfg, "target.prior_x": start.x, "target.prior_y": start.y})
             seen = sim.target_detection()
-            if seen is not None:  # range and bearing as measured (the batch's: see there)
-                self.filter.measure(t, seen[0], seen[1], odom[J_X], odom[J_Y], odom[J_YAW], pitch)
-            estimate = self.filter.estimate(t)
-            self.fused = Target(estimate.x, estimate.y, estimate.vx, estimate.vy)
+            if seen is not None:  # range and bearing as tracker_node reads them from the PoseArray
+                self.filter.measure(t, *detection_read_back(*seen), odom[J_X], odom[J_Y], yaw, pitch)
+            estimate = self.filter.estimate(t)  # sent as the target's odometry, read by the planner
+            velocity = target_velocity_read_back(*heading_speed(estimate.vx, estimate.vy))
+            self.fused = Target(estimate.x, estimate.y, *velocity)
 
     def target(self, sim: Simulator) -> Any:
         """The fused target (the world's where the robot has no detector)."""
-        from twbr_planner.planner import Target
-
-        if self._look_due is None:
-            state = sim.world.target() if sim.world is not None else None
-            return Target(state.x, state.y, *state.velocity) if state is not None else None
-        return self.fused
+        return world_target(sim) if self._look_due is None else self.fused
 
     def obstacles_at(self, t: float) -> Any:
         """The last scan's obstacles moved along their velocities to t, as planner_node moves them."""

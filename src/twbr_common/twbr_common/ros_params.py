@@ -29,7 +29,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from twbr_common.executor import spin_until_shutdown
-from twbr_common.guard import INPUT_SPECS, future_tolerance
+from twbr_common.guard import SIM_FUTURE_TOLERANCE, future_tolerance, input_specs
 from twbr_common.node_process import process_specs, settle_process
 from twbr_common.param_files import check_overrides, preflight
 from twbr_common.params import ConfigError, ParamSpec
@@ -183,15 +183,17 @@ def exit_deadline(seconds: float) -> Iterator[None]:
         faulthandler.cancel_dump_traceback_later()
 
 
-def input_streams(node: Node) -> InputStreams:
-    """The node's guarded inputs, with its future_tolerance, restarted when its clock jumps back.
+def input_streams(node: Node, sim_tolerance: float = SIM_FUTURE_TOLERANCE) -> InputStreams:
+    """The node's guarded inputs, with its future_tolerance (by default `sim_tolerance` [s] on sim time),
+    restarted when its clock jumps back.
 
     rclpy's jump callback restarts them the moment /clock goes back, before any message of the new run is
     judged against the old run's stamps; `InputStreams.observe` catches the same on wall time.
     """
-    cfg = declare(node, INPUT_SPECS)
+    cfg = declare(node, input_specs(sim_tolerance))
     sim_time = bool(node.get_parameter("use_sim_time").value)
-    streams = InputStreams(node.get_logger().warning, future_tolerance(cfg["future_tolerance"], sim_time))
+    streams = InputStreams(node.get_logger().warning,
+                           future_tolerance(cfg["future_tolerance"], sim_time, sim_tolerance))
     threshold = JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False)
     # The handle must live as long as the node: dropping it unregisters the callback.
     streams.jump_handle = node.get_clock().create_jump_callback(threshold, post_callback=lambda _jump: streams.restart())

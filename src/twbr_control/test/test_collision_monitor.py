@@ -48,3 +48,18 @@ def test_the_node_monitor_counts_and_forgets_stale_lists():
     off = CollisionMonitor(resolve({"collision_monitor.enabled": False}))
     off.obstacles(0.0, np.array([[1, 3.0, 0.0, 0.0, 0.0, 0.3]]))
     assert off.limit(0.0, 1.0, 2.0, 0.0, 0.0) == (1.0, False)
+
+
+def test_a_list_applies_from_the_state_after_its_stamp_whenever_it_arrived():
+    """The state at t limited on the list of before t, whether the list of t came before it or after it:
+    the graph's order of arrival never changes the command (a race the batch engine cannot copy)."""
+    old = np.array([[1, 3.0, 0.0, 0.0, 0.0, 0.3]])  # ahead, in the way
+    new = np.array([[1, 3.0, 5.0, 0.0, 0.0, 0.3]])  # gone aside
+    early, late = CollisionMonitor(resolve()), CollisionMonitor(resolve())
+    for m in (early, late):
+        m.obstacles(0.1, old)
+    early.obstacles(0.2, new)  # the list of 0.2 reached this one before the state of 0.2
+    at_02 = [m.limit(0.2, 1.0, 2.0, 0.0, 0.0) for m in (early, late)]
+    late.obstacles(0.2, new)  # and this one after it
+    assert at_02[0] == at_02[1] and at_02[0][1]  # both limited, on the list of 0.1
+    assert early.limit(0.205, 1.0, 2.0, 0.0, 0.0) == late.limit(0.205, 1.0, 2.0, 0.0, 0.0) == (1.0, False)

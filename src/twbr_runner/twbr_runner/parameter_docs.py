@@ -23,6 +23,7 @@ from twbr_sim.robot_params import ROBOT_SPECS
 from twbr_sim.simulator import SIM_SPECS
 from twbr_sim.torque_driver import DRIVER_SPECS
 from twbr_sim.world_node import WORLD_SPECS
+from twbr_tracker.tracker_node import INPUT_SPECS as TRACKER_INPUT_SPECS
 from twbr_tracker.tracker_node import NODE_SPECS as TRACKER_NODE_SPECS
 from twbr_view.viewer_node import VIEWER_SPECS  # (twbr_view depends on twbr_runner: not declared back)
 
@@ -75,7 +76,7 @@ SECTIONS: tuple[tuple[str, Sequence[ParamSpec], str], ...] = (
      "Besides these, `mujoco_driver` declares every simulator parameter above (the robot's own come from\n"
      "`robot_file`, not from parameters). `traction.friction` is there the friction coefficient of MuJoCo's\n"
      "wheel-ground contact: it decides slip instead of only reporting it."),
-    ("`tracker_node` (package `twbr_tracker`, `config/tracker.yaml`)", (*TRACKER_NODE_SPECS, *INPUT_SPECS),
+    ("`tracker_node` (package `twbr_tracker`, `config/tracker.yaml`)", (*TRACKER_NODE_SPECS, *TRACKER_INPUT_SPECS),
      "`axle_height` and `lidar_height` place the scanner as the robot carries it (sim_node's `wheel_radius`\n"
      "and `lidar.height`)."),
     ("`viewer` (package `twbr_view`)", VIEWER_SPECS,
@@ -93,7 +94,7 @@ NODE_PARAMETERS: dict[str, tuple[ParamSpec, ...]] = {
     "torque_driver": (*PROCESS_SPECS, *DRIVER_SPECS),
     "mujoco_driver": (*PROCESS_SPECS, *SIM_SPECS, *MUJOCO_SPECS),
     "viewer": (*PROCESS_SPECS, *VIEWER_SPECS),
-    "tracker_node": (*PROCESS_SPECS, *TRACKER_NODE_SPECS, *INPUT_SPECS),
+    "tracker_node": (*PROCESS_SPECS, *TRACKER_NODE_SPECS, *TRACKER_INPUT_SPECS),
 }
 RCLPY_PARAMETERS = ("use_sim_time", "start_type_description_service")
 

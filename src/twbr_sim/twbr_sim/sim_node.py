@@ -75,7 +75,6 @@ class SimNode(Node):
         self.lockstep = cfg["mode"] == "lockstep"
         self._frame_odom = cfg["odom_frame"]
         self._frame_base = cfg["base_frame"]
-        self._step_ns = round(1e9 / cfg["physics_rate"])
         self._commands_received = 0
         self._status_flags: tuple | None = None
         self._published_at: float | None = None
@@ -177,7 +176,7 @@ class SimNode(Node):
         the control loop's latency (benchmarks/README.md).
         """
         sim = self.sim
-        now_ns = sim.step_count * self._step_ns
+        now_ns = sim.stamp_ns
         stamp = to_stamp(now_ns)
         self._clock_msg.clock = stamp
         due = self.publications.with_state(sim.time, self.hosting_world)
@@ -407,7 +406,7 @@ class SimNode(Node):
         self._executor.remove_node(self)
         wall = time.monotonic() - self._wall_start if self._wall_start is not None else 0.0
         if self.context.ok():
-            final = to_stamp(self.sim.step_count * self._step_ns)
+            final = to_stamp(self.sim.stamp_ns)
             self.pub_status.publish(self.status_message(final))  # the run's final counters
             flush_publishers(self)
         rates = rates_text(self._exchanges, wall, self.sim.time - self._sim_start) if wall > 0 else ""

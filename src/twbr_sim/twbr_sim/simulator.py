@@ -13,6 +13,7 @@ import numpy as np
 
 from twbr_common.guard import INPUT_SPECS, TORQUE_LIMIT, InputGuard, Verdict, future_tolerance
 from twbr_common.params import ConfigError, ParamSpec
+from twbr_common.wire import step_nanoseconds
 from twbr_sim import dynamics as dyn
 from twbr_sim import lidar, target_sensor
 from twbr_sim.encoders import ENCODER_SPECS, J_RATE_LEFT, J_RATE_RIGHT, encoder_sample
@@ -125,6 +126,7 @@ class Simulator:
     def __init__(self, robot: np.ndarray, settings: dict, scenario: Scenario | None, seed: int) -> None:
         self.p = robot
         self.h = 1.0 / settings["physics_rate"]
+        self.step_ns = step_nanoseconds(settings["physics_rate"])
         self.steps_per_publish = steps_per_publish(settings["physics_rate"], settings["publish_rate"])
         self.torque_limit = wheel_torque_limit(robot)
         # The simulator's clock is sim time: a command stamped ahead of it comes from another clock.
@@ -211,6 +213,11 @@ class Simulator:
     @property
     def time(self) -> float:
         return self.step_count * self.h
+
+    @property
+    def stamp_ns(self) -> int:
+        """The current state's stamp [ns], as sim_node publishes it."""
+        return self.step_count * self.step_ns
 
     def offer_command(self, stamp: float, left: float, right: float) -> CommandResult:
         """Admit a wheel_torque_cmd; NaN/inf, absurd, unstamped and out-of-order ones never reach the motors."""

@@ -32,10 +32,11 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from twbr_common.cdr import UNKNOWN_POSITION
 from twbr_common.geometry import rpy_from_quaternion
-from twbr_common.guard import POSITION_LIMIT
+from twbr_common.guard import POSITION_LIMIT, SLOW_SIM_FUTURE_TOLERANCE, input_specs
 from twbr_common.params import ParamSpec
 from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
+from twbr_common.wire import heading_speed, range_bearing
 from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
 from twbr_sim.world import TargetState
@@ -50,6 +51,8 @@ NODE_SPECS: tuple[ParamSpec, ...] = (
               0.001, 10.0),
     ParamSpec("odom_frame", "odom", "frame of the published obstacles"),
 )
+# It works outside the lockstep, for milliseconds a scan: its odom may come a few states before its /clock.
+INPUT_SPECS = input_specs(SLOW_SIM_FUTURE_TOLERANCE)
 
 
 class TrackerNode(Node):
@@ -60,7 +63,7 @@ class TrackerNode(Node):
         self.core = Tracker(cfg)
         self.core.warm_up()  # before any publisher: once peers see this node, it answers on time
         self.target = TargetFilter(cfg)
-        self.inputs = input_streams(self)
+        self.inputs = input_streams(self, SLOW_SIM_FUTURE_TOLERANCE)  # its INPUT_SPECS
         self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
         self._pose: tuple[float, ...] | None = None  # newest odom: stamp, x, y, yaw, speed, yaw rate, pitch
@@ -146,9 +149,9 @@ class TrackerNode(Node):
     def _follow(self, msg: PoseArray, t: float, pose: tuple[float, ...]) -> None:
         x, y, yaw, _v, _w, pitch = pose
         if msg.poses:  # the detector saw it (the nearest, if it reports more than one)
-            p = min((q.position for q in msg.poses), key=lambda q: math.hypot(q.x, q.y))
+            p = min((q.position for q in msg.poses), key=lambda q: range_bearing(q.x, q.y)[0])
             if math.isfinite(p.x) and math.isfinite(p.y):
-                self.target.measure(t, math.hypot(p.x, p.y), math.atan2(p.y, p.x), x, y, yaw, pitch)
+                self.target.measure(t, *range_bearing(p.x, p.y), x, y, yaw, pitch)
         estimate = self.target.estimate(t)
         self.pub_target.publish(target_odometry(estimate, msg.header.stamp, self.cfg["odom_frame"]))
 
@@ -172,9 +175,8 @@ def target_odometry(estimate: TargetEstimate | None, stamp, frame: str) -> Odome
         covariance[0] = UNKNOWN_POSITION
         msg.pose.covariance = covariance
         return msg
-    vx, vy = estimate.vx, estimate.vy
-    state = TargetState(x=estimate.x, y=estimate.y, heading=math.atan2(vy, vx), speed=math.hypot(vx, vy),
-                        yaw_rate=0.0)
+    heading, speed = heading_speed(estimate.vx, estimate.vy)
+    state = TargetState(x=estimate.x, y=estimate.y, heading=heading, speed=speed, yaw_rate=0.0)
     msg = target_message(state, stamp, frame)
     covariance = [0.0] * 36
     covariance[0] = covariance[7] = estimate.position_variance
