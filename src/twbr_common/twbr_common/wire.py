@@ -8,10 +8,11 @@ value sent in its last bit, and a planner's decision on its threshold turns a la
 (a LiDAR run of suite/trap_wedge parted from the batch's after 24 s and reached where the batch's did
 not). Applied here too, the graph, the headless loop and the batch engine take one path to the last bit.
 
-Each function is the readers' code itself (ros_io.stamp_seconds, geometry's quaternion pair,
-planner_node's target, tracker_node's detection and target): the nodes call these functions, so there is
-one copy of each rounding. Ranges and speeds are sqrt(x^2 + y^2), not hypot: CPython's math.hypot and
-the compiled one differ in the last bit, and sqrt is correctly rounded everywhere.
+tracker_node calls range_bearing and heading_speed itself; the stamp and orientation read-backs compile
+the readers' own code (geometry's quaternion pair) or repeat one line of it (ros_io.stamp_seconds,
+planner_node's target velocity), and test_wire checks each against the node's reading. Ranges and speeds
+are sqrt(x^2 + y^2), not hypot: CPython's math.hypot and the compiled one differ in the last bit, and
+sqrt is correctly rounded everywhere.
 """
 
 from __future__ import annotations
