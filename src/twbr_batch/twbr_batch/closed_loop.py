@@ -174,11 +174,9 @@ class PlannerReference:
         seeing = self.perception
         if seeing is not None:
             seeing.sense(stamp, sim, self.monitor)
-        planning = self.due.due(stamp)
-        if planning or not never_commanded:  # the pose and speed odom carries, as the nodes read them
-            odom = sim.sense().encoders
-            _, yaw = odom_orientation(sim)
-        if planning:
+        odom = sim.sense().encoders  # the pose and speed odom carries, as planner_node gets them
+        _, yaw = odom_orientation(sim)
+        if self.due.due(stamp):
             world = sim.world
             if seeing is not None:
                 target, obstacles = seeing.target(sim), seeing.obstacles_at(stamp)
@@ -246,12 +244,9 @@ class LidarPerception:
         if self._scan_due is None:
             self._scan_due = Decimator(sim.lidar_rate)
             self._look_due = Decimator(sim.target_sensor_rate) if sim.target_sensor_rate > 0.0 else None
-        scanning = self._scan_due.due(t)
-        looking = self._look_due is not None and sim.world is not None and self._look_due.due(t)
-        if scanning or looking:  # the pose and speed odom carries, as tracker_node reads them
-            odom = sim.sense().encoders
-            pitch, yaw = odom_orientation(sim)
-        if scanning:
+        odom = sim.sense().encoders
+        pitch, yaw = odom_orientation(sim)
+        if self._scan_due.due(t):
             s = sim.lidar_settings
             positions, velocities, radii = sim.obstacle_arrays()  # the scan's and the judge's
             ranges = sim.scan((positions, velocities, radii)).astype(np.float32).astype(np.float64)
@@ -266,7 +261,7 @@ class LidarPerception:
             state = sim.state
             judge_lists(self.judge, self._born, self._last_track, t, self.rows, len(self.rows), positions, velocities,
                         radii, state[dyn.S_XC], state[dyn.S_YC], s[lidar.LD_RANGE_MAX], GATE, SETTLE)
-        if looking:
+        if self._look_due is not None and sim.world is not None and self._look_due.due(t):
             if self.filter is None:
                 start = sim.world.target()
                 self.filter = TargetFilter({**self.cfg, "target.prior_x": start.x, "target.prior_y": start.y})
