@@ -9,10 +9,11 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 
 # Sensor streams (odom, imu, joint_states) are subscribed best effort: that matches reliable and
 # best-effort publishers alike (real drivers differ). Our publishers of them are reliable, and keep the
-# last STREAM_HISTORY samples to resend: a reliable recorder that the machine's load holds back (two
-# busy cores and a 200 Hz stream: 10 samples are 17 ms of wall time at RTF 3) catches up from them
-# instead of losing what it missed. Keeping them costs memory, never the publisher's time.
-STREAM_HISTORY = 100
+# last STREAM_HISTORY samples to resend: a reliable recorder that the machine's load holds back catches
+# up from them instead of losing what it missed. 100 (0.5 s of a 200 Hz stream, ~0.17 s of wall time at
+# RTF 3) lost 0.8 s of every stream at once in a bag when two graphs and two busy loops shared 2 cores;
+# 1000 keeps ~1.7 s of wall time. Keeping them costs memory (~1 MB a stream), never the publisher's time.
+STREAM_HISTORY = 1000
 SENSOR_SUB_QOS = qos_profile_sensor_data
 SENSOR_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
 CLOCK_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
