@@ -85,3 +85,33 @@ def test_a_turning_robot_s_scan_is_deskewed():
     assert math.hypot(disc[DC_X] - 0.0, disc[DC_Y] - 5.0) < 0.06
     (skewed,) = detected(ranges)
     assert math.hypot(skewed[DC_X] - 0.0, skewed[DC_Y] - 5.0) > 0.8
+
+
+@pytest.mark.parametrize("distance", [2.5, 4.0, 6.0, 9.0])
+@pytest.mark.parametrize("radius", [1.0, 1.5, 2.0])
+def test_a_large_disc_is_one_disc_where_it_is_not_a_wall(distance, radius):
+    """The paper's moving obstacles are discs of 1.5 and 2 m: seen whole they are an arc 2-3.5 m long, longer
+    than a person, and were chained as a wall (static, never tracked). On a circle, they are one disc; with
+    the scanner's range noise (1 cm) its centre and radius within 5 cm."""
+    noise = np.random.default_rng(int(10 * distance + radius)).normal(0.0, 0.01, 360)
+    for x, y, yaw in ((0.0, 0.0, 0.0), (1.0, -0.5, 0.4)):
+        cx, cy = x + distance * math.cos(0.3), y + distance * math.sin(0.3)
+        ranges = scan_of([(cx, cy, radius)], x=x, y=y, yaw=yaw) + noise
+        (disc,) = detected(ranges, x=x, y=y, yaw=yaw)
+        assert disc[DC_WALL] == 0.0
+        assert math.hypot(disc[DC_X] - cx, disc[DC_Y] - cy) < 0.05 and disc[DC_RADIUS] == pytest.approx(radius, abs=0.05)
+
+
+@pytest.mark.parametrize("layout", ["row", "corner", "trap"])
+def test_walls_corners_and_traps_stay_chains_with_noise(layout):
+    """Straight rows, an L-shaped corner and a trap's U of 0.35 m discs are walls: however their noise fits a
+    circle, they are not taken for a large disc."""
+    walls = {"row": [(x, 2.0, 0.1) for x in np.arange(-2.0, 2.01, 0.15)],
+             "corner": [(3.0, y, 0.1) for y in np.arange(0.0, 2.0, 0.15)] + [(x, 2.0, 0.1) for x in np.arange(1.5, 3.0, 0.15)],
+             "trap": ([(7.0, y, 0.35) for y in np.linspace(-2.35, 2.35, 10)]
+                      + [(x, side * 2.35, 0.35) for x in np.arange(4.0, 6.6, 0.5) for side in (-1.0, 1.0)])}[layout]
+    rng = np.random.default_rng(3)
+    for x in (0.0, 2.0, 4.0):
+        discs = detected(scan_of(walls, x=x) + rng.normal(0.0, 0.01, 360), x=x)
+        long = discs[discs[:, DC_RADIUS] > 0.5]
+        assert len(long) == 0 or np.all(long[:, DC_WALL] == 1.0), long

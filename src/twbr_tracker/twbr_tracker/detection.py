@@ -10,8 +10,10 @@ chain of discs along a long one (a wall, a table edge).
    of two beams grows with the range) belong together (the adaptive breakpoint rule of Borges & Aldon 2004).
 3. Discs: a segment no longer than `max_disc_extent` is one disc, fitted to its points by least squares
    (Kasa's algebraic circle fit) when that fit is sane, else the segment's centroid pushed away from the
-   scanner by half its extent (a scanner sees only the near side of a person); a longer one is a chain of
-   discs `chain_spacing` apart along it.
+   scanner by half its extent (a scanner sees only the near side of a person); a longer one is one disc
+   too when its points lie on a circle (`arc_tolerance` RMS) of radius at most `max_arc_radius`, bulging
+   towards the scanner by at least `arc_min_depth` (a large moving obstacle: a car, a cart, the paper's
+   1.5-2 m discs), and otherwise a chain of discs `chain_spacing` apart along it (a wall, a row of posts).
 
 Every step is a compiled kernel on flat arrays; `detect` composes them.
 """
@@ -36,6 +38,12 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("detection.max_disc_extent", 1.2, "a longer segment is a wall: a chain of discs", "m", 0.1, 10.0),
     ParamSpec("detection.min_radius", 0.05, "smallest disc reported", "m", 0.0, 5.0),
     ParamSpec("detection.chain_spacing", 0.4, "distance between the discs of a wall's chain", "m", 0.05, 5.0),
+    ParamSpec("detection.max_arc_radius", 2.5, "a segment longer than max_disc_extent whose points lie on a circle"
+              " of at most this radius is one large disc, not a wall's chain (0: never)", "m", 0.0, 50.0),
+    ParamSpec("detection.arc_tolerance", 0.03, "the RMS distance of a segment's points from its fitted circle up to"
+              " which they lie on it (about 3 range noise std)", "m", 0.0, 1.0, low_open=True),
+    ParamSpec("detection.arc_min_depth", 0.05, "the least bulge of an arc towards the scanner, from the chord"
+              " between its ends: a flatter one is a wall, whatever circle its noise fits", "m", 0.0, 5.0),
     ParamSpec("detection.chain_depth", 2.0, "a chain disc's centre lies this many half-lengths of its stretch of"
               " wall behind it (away from the scanner), its radius reaching every point of the stretch: the"
               " deeper, the less the disc bulges in front of the wall (0: centred on the wall, bulging half its"
@@ -43,7 +51,7 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
 )
 
 SETTINGS_LAYOUT = Layout(("floor_margin", "gap", "gap_per_metre", "min_points", "max_disc_extent", "min_radius",
-                          "chain_spacing", "chain_depth"))
+                          "chain_spacing", "chain_depth", "max_arc_radius", "arc_tolerance", "arc_min_depth"))
 DS_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
 DS_GAP = SETTINGS_LAYOUT["gap"]
 DS_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
@@ -52,6 +60,9 @@ DS_MAX_DISC_EXTENT = SETTINGS_LAYOUT["max_disc_extent"]
 DS_MIN_RADIUS = SETTINGS_LAYOUT["min_radius"]
 DS_CHAIN_SPACING = SETTINGS_LAYOUT["chain_spacing"]
 DS_CHAIN_DEPTH = SETTINGS_LAYOUT["chain_depth"]
+DS_MAX_ARC_RADIUS = SETTINGS_LAYOUT["max_arc_radius"]
+DS_ARC_TOLERANCE = SETTINGS_LAYOUT["arc_tolerance"]
+DS_ARC_MIN_DEPTH = SETTINGS_LAYOUT["arc_min_depth"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 # One disc: centre [m], radius [m], whether it is part of a wall's chain (1) or a compact object (0), when
@@ -169,6 +180,38 @@ def _circle_fit(points, lo, hi):
 
 
 @kernel
+def _arc_fit(s, points, lo, hi, scanner_x, scanner_y):
+    """The circle points[lo:hi] lie on, as (cx, cy, radius), or radius 0 when they do not lie on one of at
+    most `max_arc_radius` that bulges towards the scanner (detection's third step)."""
+    if hi - lo < 5 or s[DS_MAX_ARC_RADIUS] <= 0.0:
+        return 0.0, 0.0, 0.0
+    fx, fy, fr = _circle_fit(points, lo, hi)
+    if not fr <= s[DS_MAX_ARC_RADIUS]:
+        return 0.0, 0.0, 0.0
+    square_sum = 0.0
+    for i in range(lo, hi):
+        square_sum += (math.hypot(points[i, 0] - fx, points[i, 1] - fy) - fr) ** 2
+    if square_sum > s[DS_ARC_TOLERANCE] ** 2 * (hi - lo):
+        return 0.0, 0.0, 0.0
+    # the bulge: how far the points come out of the chord between the ends, towards the scanner
+    ex = points[hi - 1, 0] - points[lo, 0]
+    ey = points[hi - 1, 1] - points[lo, 1]
+    length = math.hypot(ex, ey)
+    nx = -ey / length
+    ny = ex / length
+    if nx * (scanner_x - points[lo, 0]) + ny * (scanner_y - points[lo, 1]) < 0.0:
+        nx = -nx
+        ny = -ny
+    depth = 0.0
+    for i in range(lo, hi):
+        depth = max(depth, nx * (points[i, 0] - points[lo, 0]) + ny * (points[i, 1] - points[lo, 1]))
+    centre_side = nx * (fx - points[lo, 0]) + ny * (fy - points[lo, 1])
+    if depth < s[DS_ARC_MIN_DEPTH] or centre_side > 0.0:  # flat, or hollow towards the scanner
+        return 0.0, 0.0, 0.0
+    return fx, fy, fr
+
+
+@kernel
 def _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y):
     """Whether the beam just outside either end of points[lo:hi] returns closer than that end: an object
     in front hides part of this one."""
@@ -179,6 +222,17 @@ def _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y):
         if outside == -math.inf or (math.isfinite(outside) and outside < near - 0.1):
             return True
     return False
+
+
+@kernel
+def _put_disc(discs, n, x, y, radius, wall, seen, clipped):
+    """Row n of `discs` (DISC_LAYOUT)."""
+    discs[n, DC_X] = x
+    discs[n, DC_Y] = y
+    discs[n, DC_RADIUS] = radius
+    discs[n, DC_WALL] = wall
+    discs[n, DC_T] = seen
+    discs[n, DC_CLIPPED] = clipped
 
 
 @kernel
@@ -199,20 +253,22 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             cx, cy = _centroid(points, lo, hi)
             half = max(0.5 * extent, s[DS_MIN_RADIUS])
             fx, fy, fr = (_circle_fit(points, lo, hi) if hi - lo >= 3 else (cx, cy, math.inf))
+            ax, ay, ar = _arc_fit(s, points, lo, hi, scanner_x, scanner_y)
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
             if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
                     and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
-                discs[n, DC_X] = fx
-                discs[n, DC_Y] = fy
-                discs[n, DC_RADIUS] = max(fr, s[DS_MIN_RADIUS])
+                _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped)
+            elif ar > 0.0:  # a short arc of a large disc (partly hidden, or seen end on)
+                _put_disc(discs, n, ax, ay, ar, 0.0, seen, clipped)
             else:  # the near side of a disc of the segment's width
                 d = math.hypot(cx - scanner_x, cy - scanner_y)
-                discs[n, DC_X] = cx + half * (cx - scanner_x) / d
-                discs[n, DC_Y] = cy + half * (cy - scanner_y) / d
-                discs[n, DC_RADIUS] = half
-            discs[n, DC_WALL] = 0.0
-            discs[n, DC_T] = seen
-            discs[n, DC_CLIPPED] = clipped
+                _put_disc(discs, n, cx + half * (cx - scanner_x) / d, cy + half * (cy - scanner_y) / d, half, 0.0,
+                          seen, clipped)
+            n += 1
+            continue
+        fx, fy, fr = _arc_fit(s, points, lo, hi, scanner_x, scanner_y)
+        if fr > 0.0:  # a large disc
+            _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped)
             n += 1
             continue
         pieces = math.ceil(extent / s[DS_CHAIN_SPACING])
@@ -238,12 +294,7 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             reach = 0.0
             for i in range(a, b):
                 reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
-            discs[n, DC_X] = cx
-            discs[n, DC_Y] = cy
-            discs[n, DC_RADIUS] = max(reach, s[DS_MIN_RADIUS])
-            discs[n, DC_WALL] = 1.0
-            discs[n, DC_T] = seen
-            discs[n, DC_CLIPPED] = clipped
+            _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped)
             n += 1
     return n
 
