@@ -58,3 +58,26 @@ def test_obstacle_lists_are_kept_as_snapshots_and_moved_to_the_instant_asked():
     for t in (0.013, 3.337, 9.999):
         at = obstacles_at(s, t)
         assert len(at) == 200 and all(math.isclose(x, i + 0.5 * t, abs_tol=1e-9) for i, x, _, _ in at)
+
+
+def _clock(t: float) -> NS:
+    sec = int(t)
+    return NS(clock=NS(sec=sec, nanosec=round((t - sec) * 1e9)))
+
+
+def test_a_clock_held_back_by_the_recorder_leaves_no_odom_out_and_still_refuses_one_from_ahead():
+    """Measured on a loaded 2-core host: one /clock sample missed by the recorder was resent 1.2 s later,
+    and the 660 after it (3.3 s of sim time) waited for it; odom and joint_states came on time meanwhile.
+    Every odom of the gap is the run's, and an odom stamped 1 s ahead inside the gap is still not."""
+    steps, missed = 4000, 1263  # 200 Hz of sim time at real-time factor 2: 2.5 ms of wall time apart
+    send = [2_500_000 * k for k in range(steps)]
+    resent = send[missed] + 1_200_000_000
+    # in order: every sample from the missed one on waits for it, and comes 1 us after the one before
+    clock = [(send[k] + 100_000 if k < missed else max(send[k] + 100_000, resent + 1_000 * (k - missed)),
+              _clock(0.005 * k)) for k in range(steps)]
+    odom = [(send[k] + 200_000, _odom(0.005 * k, 0.001 * k)) for k in range(steps)]
+    joints = [(send[k] + 250_000, NS(header=_odom(0.005 * k, 0.0).header, effort=[0.01, 0.01])) for k in range(steps)]
+    ahead = [(send[k] + 300_000, _odom(0.005 * k + 1.0, 5.0)) for k in (1400, 1600, 1800)]
+    s = series_from_messages({"/clock": clock, "/odom": odom + ahead, "/joint_states": joints})
+    assert len(s.odom_t) == steps and len(s.joints_t) == steps and s.refused == {"/odom": 3}
+    assert s.x_c.max() == 0.001 * (steps - 1)
