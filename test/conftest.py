@@ -8,10 +8,12 @@ test fails.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import itertools
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -24,6 +26,7 @@ from twbr_runner.spawn import NodeProcess, loopback_env, start_node
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config"
 _domains = itertools.count()
+_holding_alone = False  # this process's test holds the machine alone (machine_share)
 # The runner as the end-to-end tests start it: the simulator waits up to 5 s of wall time for each command
 # (sim.yaml: 0.5 s), so a test that asserts no lockstep timeout judges the graph, not a host stalled by
 # other work (make e2e-loaded); a node that dies still shows, as a run that takes 5 s per step.
@@ -31,15 +34,28 @@ RUNNER = (sys.executable, "-m", "twbr_runner.runner", "--lockstep-timeout", "5")
 PATIENT_LOCKSTEP = ("-p", "lockstep_timeout:=5.0")  # the same for a sim_node the test starts itself
 
 
+def worker_domains() -> range:
+    """This pytest process's share of domains 120..219 (0..232 are valid Fast DDS domains): with
+    pytest-xdist (`make test` runs two workers) each worker draws from its own block, so two tests running
+    side by side never share a domain; 221..232 are left to the unit tests' own children."""
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    index = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
+    span = 100 // count
+    return range(120 + index * span, 120 + (index + 1) * span)
+
+
 @pytest.fixture
 def ros_domain() -> int:
-    # Distinct per test and per pytest process; 0..232 are valid Fast DDS domains.
-    return 120 + (os.getpid() * 7 + next(_domains)) % 100
+    # Distinct per test and per pytest process.
+    block = worker_domains()
+    return block[(os.getpid() * 7 + next(_domains)) % len(block)]
 
 
 @contextlib.contextmanager
 def busy_loops() -> Iterator[int]:
-    """One busy loop per core while inside (a loaded host); they are killed on the way out, whatever happens."""
+    """One busy loop per core while inside (a loaded host); they are killed on the way out, whatever happens.
+    Only in a test marked `alone` (machine_share), or beside none (make e2e-loaded runs one process)."""
+    assert _holding_alone or "PYTEST_XDIST_WORKER" not in os.environ, "a test with busy_loops must be marked alone"
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
     try:
         yield len(hogs)
@@ -58,6 +74,39 @@ def busy_loop() -> Iterator[int]:
         return
     with busy_loops() as n:
         yield n
+
+
+@contextlib.contextmanager
+def machine_share(alone: bool) -> Iterator[None]:
+    """The machine, shared with the end-to-end tests of other pytest workers, or alone. A test that loads every
+    core on purpose (busy_loops) runs alone, so it measures its own graph on a loaded host and leaves no
+    other test on one: beside another worker's graph, its loops starved that graph's recorder (make test
+    with two workers: /clock in its bag 1.2 s of wall time late). A waiting `alone` test holds the gate, so
+    no new test starts meanwhile (it is not starved by a stream of shared ones)."""
+    base = Path(tempfile.gettempdir()) / f"twbr-e2e-{os.getuid()}"
+    with open(f"{base}.gate", "a") as gate, open(f"{base}.lock", "a") as lock:
+        fcntl.flock(gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(gate, fcntl.LOCK_UN)
+        global _holding_alone
+        _holding_alone = alone
+        try:
+            yield
+        finally:
+            _holding_alone = False
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+@pytest.fixture(autouse=True)
+def machine(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Every end-to-end test holds its share of the machine (machine_share); one marked `alone`, all of it."""
+    if request.node.get_closest_marker("e2e") is None:
+        yield
+        return
+    with machine_share(request.node.get_closest_marker("alone") is not None):
+        yield
 
 
 @pytest.fixture

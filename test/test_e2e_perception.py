@@ -34,6 +34,7 @@ def run(out: Path, domain: int) -> tuple[dict, Path]:
     return json.loads((run_dir / "metrics.json").read_text()), run_dir
 
 
+@pytest.mark.alone
 def test_on_the_lidar_the_robot_passes_what_it_tracks_the_same_way_idle_or_loaded(tmp_path, ros_domain):
     idle, idle_dir = run(tmp_path / "idle", ros_domain)
     assert idle["perception"] == "lidar"

@@ -87,6 +87,7 @@ def _run(out: Path, env: dict[str, str]) -> Path:
 # ~50 s: make test-long. make test keeps the same property on the LiDAR graph (test_e2e_perception: the
 # world's target, the tracker's obstacles, idle and loaded, gap 0 m).
 @pytest.mark.long
+@pytest.mark.alone
 def test_the_same_run_on_an_idle_and_on_a_loaded_machine_gives_the_same_path(tmp_path, ros_env):
     # Before: under load the world reached the planner after the odom of its instant (world_timeout: the
     # robot stopped without a ramp), and cmd_vel took effect at whichever state it happened to beat.

@@ -38,7 +38,7 @@ sys.exit(ros_params.run_node("stuck_teardown", Stuck, ["stuck_teardown"]))
 
 def run_child(hang: bool, grace: float) -> tuple[subprocess.CompletedProcess, float]:
     env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-           "ROS_DOMAIN_ID": str(150 + os.getpid() % 70)}
+           "ROS_DOMAIN_ID": str(221 + os.getpid() % 12)}
     started = time.monotonic()
     done = subprocess.run([sys.executable, "-c", CHILD.format(grace=grace, hang=hang)], env=env,
                           capture_output=True, text=True, timeout=60)
@@ -87,7 +87,7 @@ def test_a_second_sigint_during_teardown_does_not_cut_it_short():
     """A supervisor's stop after its interrupt, or a user's second Ctrl-C, lands in the teardown: before,
     a KeyboardInterrupt there lost the viewer's summary."""
     env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
-           "ROS_DOMAIN_ID": str(150 + os.getpid() % 70)}
+           "ROS_DOMAIN_ID": str(221 + os.getpid() % 12)}
     child = subprocess.Popen([sys.executable, "-c", SLOW_TEARDOWN], env=env, stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
     assert child.stdout.readline().strip() == "spinning"
