@@ -180,19 +180,16 @@ def _circle_fit(points, lo, hi):
 
 
 @kernel
-def _arc_fit(s, points, lo, hi, scanner_x, scanner_y):
-    """The circle points[lo:hi] lie on, as (cx, cy, radius), or radius 0 when they do not lie on one of at
-    most `max_arc_radius` that bulges towards the scanner (detection's third step)."""
-    if hi - lo < 5 or s[DS_MAX_ARC_RADIUS] <= 0.0:
-        return 0.0, 0.0, 0.0
-    fx, fy, fr = _circle_fit(points, lo, hi)
-    if not fr <= s[DS_MAX_ARC_RADIUS]:
-        return 0.0, 0.0, 0.0
+def _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):
+    """Whether points[lo:hi] lie on their fitted circle (fx, fy, fr) [m], of at most `max_arc_radius`, and
+    bulge towards the scanner (detection's third step)."""
+    if hi - lo < 5 or s[DS_MAX_ARC_RADIUS] <= 0.0 or not fr <= s[DS_MAX_ARC_RADIUS]:
+        return False
     square_sum = 0.0
     for i in range(lo, hi):
         square_sum += (math.hypot(points[i, 0] - fx, points[i, 1] - fy) - fr) ** 2
     if square_sum > s[DS_ARC_TOLERANCE] ** 2 * (hi - lo):
-        return 0.0, 0.0, 0.0
+        return False
     # the bulge: how far the points come out of the chord between the ends, towards the scanner
     ex = points[hi - 1, 0] - points[lo, 0]
     ey = points[hi - 1, 1] - points[lo, 1]
@@ -206,9 +203,7 @@ def _arc_fit(s, points, lo, hi, scanner_x, scanner_y):
     for i in range(lo, hi):
         depth = max(depth, nx * (points[i, 0] - points[lo, 0]) + ny * (points[i, 1] - points[lo, 1]))
     centre_side = nx * (fx - points[lo, 0]) + ny * (fy - points[lo, 1])
-    if depth < s[DS_ARC_MIN_DEPTH] or centre_side > 0.0:  # flat, or hollow towards the scanner
-        return 0.0, 0.0, 0.0
-    return fx, fy, fr
+    return depth >= s[DS_ARC_MIN_DEPTH] and centre_side <= 0.0  # not flat, nor hollow towards the scanner
 
 
 @kernel
@@ -253,21 +248,20 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             cx, cy = _centroid(points, lo, hi)
             half = max(0.5 * extent, s[DS_MIN_RADIUS])
             fx, fy, fr = (_circle_fit(points, lo, hi) if hi - lo >= 3 else (cx, cy, math.inf))
-            ax, ay, ar = _arc_fit(s, points, lo, hi, scanner_x, scanner_y)
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
             if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
                     and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
                 _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped)
-            elif ar > 0.0:  # a short arc of a large disc (partly hidden, or seen end on)
-                _put_disc(discs, n, ax, ay, ar, 0.0, seen, clipped)
+            elif _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a short arc of a large disc
+                _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped)  # (partly hidden, or seen end on)
             else:  # the near side of a disc of the segment's width
                 d = math.hypot(cx - scanner_x, cy - scanner_y)
                 _put_disc(discs, n, cx + half * (cx - scanner_x) / d, cy + half * (cy - scanner_y) / d, half, 0.0,
                           seen, clipped)
             n += 1
             continue
-        fx, fy, fr = _arc_fit(s, points, lo, hi, scanner_x, scanner_y)
-        if fr > 0.0:  # a large disc
+        fx, fy, fr = _circle_fit(points, lo, hi)
+        if _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a large disc
             _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped)
             n += 1
             continue
