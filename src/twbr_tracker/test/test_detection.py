@@ -29,9 +29,10 @@ def scan_of(discs, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) ->
     return ranges
 
 
-def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0) -> np.ndarray:
+def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0, **detection) -> np.ndarray:
     out = np.empty((len(ranges), N_DISC))
-    n = detect(settings_vector(defaults(DETECTION_SPECS)), ranges, -math.pi, math.radians(1.0), STEP, x, y, yaw,
+    cfg = {**defaults(DETECTION_SPECS), **{f"detection.{k}": v for k, v in detection.items()}}
+    n = detect(settings_vector(cfg), ranges, -math.pi, math.radians(1.0), STEP, x, y, yaw,
                speed, yaw_rate, pitch, AXLE, HEIGHT, out)
     return out[:n]
 
@@ -53,6 +54,25 @@ def test_two_people_side_by_side_are_two_and_from_a_moved_robot_the_same():
     assert len(moved) == 2
     for d in moved:
         assert min(math.hypot(d[DC_X] - p[0], d[DC_Y] - p[1]) for p in people) < 0.06
+
+
+@pytest.mark.parametrize("distance", [2.5, 5.0, 8.0])
+@pytest.mark.parametrize("gap", [0.0, 0.02, 0.06])
+def test_people_touching_side_by_side_are_split_at_the_fold(distance, gap):
+    """Two people (r 0.3 m) walking side by side, closer than the breakpoint rule's gap (0.12 m + 3 % of the
+    range): one segment, one disc between them or a wall's chain, unless it is split where the two arcs meet
+    (a beam passing between them, or the fold behind their fronts). With 1 cm range noise, from two poses."""
+    noise = np.random.default_rng(int(100 * (distance + gap))).normal(0.0, 0.01, 360)
+    half = 0.3 + gap / 2.0
+    for x, y, yaw in ((0.0, 0.0, 0.0), (-1.0, 0.5, 0.3)):
+        people = [(x + distance, y - half, 0.3), (x + distance, y + half, 0.3)]
+        ranges = scan_of(people, x=x, y=y, yaw=yaw) + noise
+        discs = detected(ranges, x=x, y=y, yaw=yaw)
+        assert len(discs) == 2, discs
+        for cx, cy, _r in people:
+            assert min(math.hypot(d[DC_X] - cx, d[DC_Y] - cy) for d in discs) < 0.1
+        whole = detected(ranges, x=x, y=y, yaw=yaw, split_depth=0.0)  # one disc, or a wall's chain
+        assert len(whole) == 1 or np.all(whole[:, DC_WALL] == 1.0), whole
 
 
 def test_a_wall_is_a_chain_of_discs_along_it():

@@ -34,23 +34,25 @@ AXLE = 0.10
 RATE = 10.0
 
 
-def run(people, seconds: float, noisy: bool = True, seed: int = 1, **tracking):
-    """Scans of people moving in straight lines ((x0, y0, vx, vy, radius) each) seen from a still robot at
-    the origin, tracked (`tracking` over the defaults, e.g. max_coast=0.0); yields (t, confirmed tracks,
-    truth positions and velocities) per scan."""
+def run(people, seconds: float, noisy: bool = True, seed: int = 1, detection: dict | None = None, **tracking):
+    """Scans of people moving in straight lines ((x0, y0, vx, vy, radius) each), or as `people(t)` says
+    (positions, velocities, radii), seen from a still robot at the origin, tracked (`tracking` over the
+    defaults, e.g. max_coast=0.0); yields (t, confirmed tracks, truth positions and velocities) per scan."""
     lidar_cfg = {**defaults(LIDAR_SPECS), **({} if noisy else {"lidar.range_noise_std": 0.0, "lidar.dropout": 0.0})}
     ls = lidar_vector(lidar_cfg)
-    ds = detection_vector(defaults(DETECTION_SPECS))
+    ds = detection_vector({**defaults(DETECTION_SPECS), **{f"detection.{k}": v for k, v in (detection or {}).items()}})
     ks = settings_vector({**defaults(TRACK_SPECS), **{f"tracking.{k}": v for k, v in tracking.items()}})
     tracks, cov = new_tracks(ks)
     n, next_id = 0, 1
     g = new_generator(seed, LIDAR_STREAM)
-    p = np.array(people, dtype=float)
+    if not callable(people):
+        p = np.array(people, dtype=float)
+        people = lambda t: (p[:, :2] + t * p[:, 2:4], p[:, 2:4].copy(), p[:, 4].copy())  # noqa: E731
     for k in range(round(seconds * RATE) + 1):
         t = k / RATE
-        positions = p[:, :2] + t * p[:, 2:4]
+        positions, velocities, radii = people(t)
         ranges = np.empty(360)
-        cast_scan(ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE, positions, p[:, 2:4].copy(), p[:, 4].copy(), ranges)
+        cast_scan(ls, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE, positions, velocities, radii, ranges)
         scan_noise(ls, g, ranges)
         discs = np.empty((360, N_DISC))
         m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.1 / 360, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE,
@@ -59,7 +61,7 @@ def run(people, seconds: float, noisy: bool = True, seed: int = 1, **tracking):
         mark_occluded(ks, tracks, n, t, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0)
         n, next_id = track_step(ks, tracks, cov, n, next_id, t, discs, m)
         published = (tracks[:n, TR_CONFIRMED] != 0.0) & (tracks[:n, TR_LOST] == 0.0)
-        yield t, tracks[:n][published].copy(), positions, p[:, 2:4]
+        yield t, tracks[:n][published].copy(), positions, velocities
 
 
 def nearest(track, positions) -> int:
@@ -91,6 +93,53 @@ def test_two_people_crossing_keep_their_ids():
             who = nearest(track, positions)
             assert owner.setdefault(track[TR_ID], who) == who, f"track {track[TR_ID]} swapped at t = {t}"
     assert len(owner) == 2
+
+
+def side_by_side(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two people (r 0.3 m) walking towards the robot 1.6 m apart, closing to walk side by side (0.62 m
+    between centres: one cluster on the scan) from t = 2.45 s to 6 s, then parting again."""
+    def apart(t: float) -> tuple[float, float]:  # centre distance [m] and its rate [m/s]
+        if t < 0.0 or t >= 8.45:
+            return 1.6, 0.0
+        if t < 2.45:
+            return 1.6 - 0.4 * t, -0.4
+        if t < 6.0:
+            return 0.62, 0.0
+        return 0.62 + 0.4 * (t - 6.0), 0.4
+
+    d, rate = apart(t - 1.0)
+    x = 7.0 - 0.5 * t
+    positions = np.array([[x, -d / 2.0], [x, d / 2.0]])
+    velocities = np.array([[-0.5, -rate / 2.0], [-0.5, rate / 2.0]])
+    return positions, velocities, np.array([0.3, 0.3])
+
+
+def test_two_people_walking_side_by_side_keep_their_ids_and_are_both_published():
+    """While they walk as one cluster, each keeps its track, published near it; when they part, each
+    still has its own. Without splitting the cluster at its fold (split_depth 0) one track takes the
+    cluster's centre between them, the other is dropped, and they part under other ids."""
+
+    def follow(**detection) -> tuple[dict, list]:
+        owner: dict[float, int] = {}
+        errors = []
+        for t, confirmed, positions, _v in run(side_by_side, 10.0, detection=detection):
+            if t < 1.0:
+                continue
+            for track in confirmed:
+                who = nearest(track, positions)
+                owner.setdefault(track[TR_ID], who)
+                if owner[track[TR_ID]] != who:
+                    owner[track[TR_ID]] = -1  # swapped
+            published = {nearest(c, positions): c for c in confirmed}
+            errors.append(max(math.hypot(published[w][TR_X] - positions[w, 0], published[w][TR_Y] - positions[w, 1])
+                              if w in published else math.inf for w in (0, 1)))
+        return owner, errors
+
+    owner, errors = follow()
+    assert sorted(owner.values()) == [0, 1]  # two tracks, never swapped
+    assert max(errors) <= 0.3  # both published, each within 0.3 m of its person, throughout
+    merged, _ = follow(split_depth=0.0)
+    assert sorted(merged.values()) != [0, 1]
 
 
 def test_a_still_post_is_static_and_a_vanished_person_is_dropped():

@@ -7,7 +7,9 @@ chain of discs along a long one (a wall, a table edge).
    one 10 Hz scan, which would put a person 5 m away 1.5 m off); a return whose hit is within
    `floor_margin` of the floor is the floor that a leaning scan sweeps, not an obstacle.
 2. Segments: neighbouring beams whose points are closer than `gap` + `gap_per_metre` x range (the spacing
-   of two beams grows with the range) belong together (the adaptive breakpoint rule of Borges & Aldon 2004).
+   of two beams grows with the range) belong together (the adaptive breakpoint rule of Borges & Aldon 2004),
+   split again where two convex bodies touch (a fold deeper than `split_depth` between two bulging parts:
+   people walking side by side, whose gap the breakpoint rule cannot see).
 3. Discs: a segment no longer than `max_disc_extent` is one disc, fitted to its points by least squares
    (Kasa's algebraic circle fit) when that fit is sane, else the segment's centroid pushed away from the
    scanner by half its extent (a scanner sees only the near side of a person); a longer one is one disc
@@ -44,6 +46,9 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
               " which they lie on it (about 3 range noise std)", "m", 0.0, 1.0, low_open=True),
     ParamSpec("detection.arc_min_depth", 0.05, "the least bulge of an arc towards the scanner, from the chord"
               " between its ends: a flatter one is a wall, whatever circle its noise fits", "m", 0.0, 5.0),
+    ParamSpec("detection.split_depth", 0.1, "a segment is two objects where a point lies this much deeper than the"
+              " nearest points on both its sides and both parts bulge towards the scanner (people side by side;"
+              " 0: never)", "m", 0.0, 5.0),
     ParamSpec("detection.chain_depth", 2.0, "a chain disc's centre lies this many half-lengths of its stretch of"
               " wall behind it (away from the scanner), its radius reaching every point of the stretch: the"
               " deeper, the less the disc bulges in front of the wall (0: centred on the wall, bulging half its"
@@ -51,7 +56,8 @@ DETECTION_SPECS: tuple[ParamSpec, ...] = (
 )
 
 SETTINGS_LAYOUT = Layout(("floor_margin", "gap", "gap_per_metre", "min_points", "max_disc_extent", "min_radius",
-                          "chain_spacing", "chain_depth", "max_arc_radius", "arc_tolerance", "arc_min_depth"))
+                          "chain_spacing", "chain_depth", "max_arc_radius", "arc_tolerance", "arc_min_depth",
+                          "split_depth"))
 DS_FLOOR_MARGIN = SETTINGS_LAYOUT["floor_margin"]
 DS_GAP = SETTINGS_LAYOUT["gap"]
 DS_GAP_PER_METRE = SETTINGS_LAYOUT["gap_per_metre"]
@@ -63,6 +69,7 @@ DS_CHAIN_DEPTH = SETTINGS_LAYOUT["chain_depth"]
 DS_MAX_ARC_RADIUS = SETTINGS_LAYOUT["max_arc_radius"]
 DS_ARC_TOLERANCE = SETTINGS_LAYOUT["arc_tolerance"]
 DS_ARC_MIN_DEPTH = SETTINGS_LAYOUT["arc_min_depth"]
+DS_SPLIT_DEPTH = SETTINGS_LAYOUT["split_depth"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 # One disc: centre [m], radius [m], whether it is part of a wall's chain (1) or a compact object (0), when
@@ -190,20 +197,100 @@ def _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):
         square_sum += (math.hypot(points[i, 0] - fx, points[i, 1] - fy) - fr) ** 2
     if square_sum > s[DS_ARC_TOLERANCE] ** 2 * (hi - lo):
         return False
-    # the bulge: how far the points come out of the chord between the ends, towards the scanner
+    nx, ny = _towards_scanner(points, lo, hi, scanner_x, scanner_y)
+    centre_side = nx * (fx - points[lo, 0]) + ny * (fy - points[lo, 1])
+    # not flat, nor hollow towards the scanner
+    return _bulge(points, lo, hi, scanner_x, scanner_y) >= s[DS_ARC_MIN_DEPTH] and centre_side <= 0.0
+
+
+@kernel
+def _towards_scanner(points, lo, hi, scanner_x, scanner_y):
+    """The unit normal of the chord from points[lo] to points[hi - 1] on the scanner's side."""
     ex = points[hi - 1, 0] - points[lo, 0]
     ey = points[hi - 1, 1] - points[lo, 1]
-    length = math.hypot(ex, ey)
+    length = max(math.hypot(ex, ey), 1e-12)
     nx = -ey / length
     ny = ex / length
     if nx * (scanner_x - points[lo, 0]) + ny * (scanner_y - points[lo, 1]) < 0.0:
-        nx = -nx
-        ny = -ny
+        return -nx, -ny
+    return nx, ny
+
+
+@kernel
+def _bulge(points, lo, hi, scanner_x, scanner_y):
+    """How far points[lo:hi] come out of the chord between their ends, towards the scanner [m]."""
+    nx, ny = _towards_scanner(points, lo, hi, scanner_x, scanner_y)
     depth = 0.0
     for i in range(lo, hi):
         depth = max(depth, nx * (points[i, 0] - points[lo, 0]) + ny * (points[i, 1] - points[lo, 1]))
-    centre_side = nx * (fx - points[lo, 0]) + ny * (fy - points[lo, 1])
-    return depth >= s[DS_ARC_MIN_DEPTH] and centre_side <= 0.0  # not flat, nor hollow towards the scanner
+    return depth
+
+
+@kernel
+def _deepest_fold(s, points, beams, lo, hi, scanner_x, scanner_y, far, nearest_right):
+    """Where points[lo:hi] part into two convex bodies touching, or -1 (the right part's first point): at the
+    interior point lying deepest (by at least `split_depth`) behind the nearest points on both its sides,
+    or between two points with a missing beam between them lying a quarter that deep (the beam passed
+    between the bodies: far away, a body shows only a few beams and its flank points are shallow), with
+    both parts bulging towards the scanner by `arc_min_depth`, three points each at least. `far` and
+    `nearest_right` are scratch (each point's range, the least range after it)."""
+    if hi - lo < 6:
+        return -1
+    for i in range(lo, hi):
+        far[i] = math.hypot(points[i, 0] - scanner_x, points[i, 1] - scanner_y)
+    nearest_right[hi - 1] = math.inf
+    for i in range(hi - 2, lo - 1, -1):
+        nearest_right[i] = min(nearest_right[i + 1], far[i + 1])
+    best = -1
+    best_depth = s[DS_SPLIT_DEPTH]
+    nearest_left = far[lo]  # the least range before k - 1
+    for k in range(lo + 2, hi - 1):
+        before = nearest_left  # before k - 1
+        nearest_left = min(nearest_left, far[k - 1])
+        if k - lo < 3 or hi - k < 3:
+            continue
+        depth = far[k] - max(nearest_left, nearest_right[k])  # the point k, first of the right part
+        if beams[k] - beams[k - 1] > 1:  # a missing beam between k - 1 and k
+            depth = max(depth, 4.0 * (min(far[k - 1], far[k]) - max(before, nearest_right[k])))
+        if (depth >= best_depth and _bulge(points, lo, k, scanner_x, scanner_y) >= s[DS_ARC_MIN_DEPTH]
+                and _bulge(points, k, hi, scanner_x, scanner_y) >= s[DS_ARC_MIN_DEPTH]):
+            best = k
+            best_depth = depth
+    return best
+
+
+@kernel
+def split_folds(s, points, beams, n, starts, count, scanner_x, scanner_y, out):
+    """The segments starts[:count + 1] split where two convex bodies touch (_deepest_fold, again in each part:
+    people side by side are one segment by the breakpoint rule; a wall's corner has flat sides and stays
+    whole), into out (the same form); returns the new count."""
+    if s[DS_SPLIT_DEPTH] <= 0.0:
+        out[:count + 1] = starts[:count + 1]
+        return count
+    far = np.empty(n)
+    nearest_right = np.empty(n)
+    pending = np.empty((n + 1, 2), dtype=np.int64)  # the parts still to look at, the leftmost last
+    parts = 0
+    for g in range(count):
+        pending[0, 0] = starts[g]
+        pending[0, 1] = starts[g + 1]
+        waiting = 1
+        while waiting > 0:
+            waiting -= 1
+            lo = pending[waiting, 0]
+            hi = pending[waiting, 1]
+            k = _deepest_fold(s, points, beams, lo, hi, scanner_x, scanner_y, far, nearest_right)
+            if k < 0:
+                out[parts] = lo
+                parts += 1
+                continue
+            pending[waiting, 0] = k
+            pending[waiting, 1] = hi
+            pending[waiting + 1, 0] = lo
+            pending[waiting + 1, 1] = k
+            waiting += 2
+    out[parts] = n
+    return parts
 
 
 @kernel
@@ -313,4 +400,6 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
     scanner_x, scanner_y, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, height * math.sin(pitch))
     starts = np.empty(n_beams + 1, dtype=np.int64)
     count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)
-    return fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, ranges, first, beams)
+    parts = np.empty(n_beams + 1, dtype=np.int64)
+    count = split_folds(s, points, beams, n, starts, count, scanner_x, scanner_y, parts)
+    return fit_discs(s, points, times, parts, count, scanner_x, scanner_y, discs, ranges, first, beams)
