@@ -14,11 +14,10 @@ all: setup
 setup:
 	@TWBR_WARM=$(if $(filter-out setup all,$(or $(MAKECMDGOALS),all)),$(TWBR_WARM),$(or $(TWBR_WARM),1)) bash tools/bootstrap.sh
 
-# TEST_WORKERS=2 runs the tests in two pytest-xdist workers (each draws its ROS_DOMAIN_IDs from its own
-# block, test/conftest.py): 677-694 s where one process takes ~950 s on 2 cores, but the tests that run a
-# graph on wall time (world_node beside a driver, a stale cmd_vel's timeout) failed there when the machine
-# was loaded besides (benchmarks/HISTORY.md, sixth session). The default, 0, runs them in one process.
-TEST_WORKERS ?= 0
+# The tests run in two pytest-xdist workers (each draws its ROS_DOMAIN_IDs from its own block,
+# test/conftest.py); a test marked `alone` runs with no other end-to-end test beside it. TEST_WORKERS=0 runs
+# them in one process (figures: benchmarks/HISTORY.md, eighth session).
+TEST_WORKERS ?= 2
 test: setup
 	@$(RUN) python -m pytest -q -n $(TEST_WORKERS) -m "not long"
 

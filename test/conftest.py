@@ -36,7 +36,7 @@ PATIENT_LOCKSTEP = ("-p", "lockstep_timeout:=5.0")  # the same for a sim_node th
 
 def worker_domains() -> range:
     """This pytest process's share of domains 120..219 (0..232 are valid Fast DDS domains): with
-    pytest-xdist (`make test TEST_WORKERS=2`) each worker draws from its own block, so two tests running
+    pytest-xdist (`make test`'s two workers) each worker draws from its own block, so two tests running
     side by side never share a domain; 221..232 are left to the unit tests' own children."""
     count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     index = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
@@ -81,8 +81,10 @@ def machine_share(alone: bool) -> Iterator[None]:
     """The machine, shared with the end-to-end tests of other pytest workers, or alone. A test that loads every
     core on purpose (busy_loops) runs alone, so it measures its own graph on a loaded host and leaves no
     other test on one: beside another worker's graph, its loops starved that graph's recorder
-    (/clock in its bag 1.2 s of wall time late). A waiting `alone` test holds the gate, so
-    no new test starts meanwhile (it is not starved by a stream of shared ones)."""
+    (/clock in its bag 1.2 s of wall time late). So does one that balances a robot on the wall clock for
+    long (a driver that is not sim_node): another graph beside it is a host that stalls its robot. A waiting
+    `alone` test holds the gate, so no new test starts meanwhile (it is not starved by a stream of shared
+    ones)."""
     base = Path(tempfile.gettempdir()) / f"twbr-e2e-{os.getuid()}"
     with open(f"{base}.gate", "a") as gate, open(f"{base}.lock", "a") as lock:
         fcntl.flock(gate, fcntl.LOCK_EX)

@@ -1,20 +1,24 @@
 """A robot driver that is not sim_node, for the conformance and drop-in tests: wall-clock stepping of the
 dynamics core at 200 Hz, stamped with the node's clock, with one deliberate fault if asked.
 
-    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped|scan_nan|scan_unlinked]
-                               [--burst N]
+    python test/fake_driver.py [--fault none|wrong_type|missing_imu|pitch_sign|unstamped|scan_nan|scan_unlinked|deaf]
+                               [--burst N] [--command-latency S]
 
 It also has a 2D LiDAR (scan at 10 Hz, base_link -> laser on /tf_static); scan_nan reports its misses as NaN
-instead of REP 117's +inf, scan_unlinked leaves the laser frame out of the transform tree.
+instead of REP 117's +inf, scan_unlinked leaves the laser frame out of the transform tree; deaf subscribes to
+wheel_torque_cmd and never applies it.
 
 --burst N publishes the samples in groups of N, each stamped at its own instant (a driver whose bus
 delivers several samples at once): a correct driver, whose rate the checker must still measure.
+--command-latency S applies each wheel_torque_cmd S seconds of the driver's time after it came (a motor bus
+that slow): a correct driver too, whose response the checker must still see.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections import deque
 
 import rclpy
 from geometry_msgs.msg import Vector3Stamped
@@ -33,13 +37,15 @@ from twbr_sim.robot_params import robot_params
 from twbr_sim.scan_messages import laser_scan, laser_transform
 from twbr_sim.simulator import SIM_SPECS, Simulator
 
-FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped", "scan_nan", "scan_unlinked")
+FAULTS = ("none", "wrong_type", "missing_imu", "pitch_sign", "unstamped", "scan_nan", "scan_unlinked", "deaf")
 
 
 class FakeDriver(Node):
-    def __init__(self, fault: str, burst: int = 1) -> None:
+    def __init__(self, fault: str, burst: int = 1, command_latency: float = 0.0) -> None:
         super().__init__("fake_driver")
         self.fault = fault
+        self.command_latency = command_latency
+        self._commands: deque[tuple[float, float, float]] = deque()  # (due in the driver's time, left, right)
         cfg = defaults(SIM_SPECS)
         self.sim = Simulator(robot_params(), cfg, None, 0)
         self.pub_odom = self.create_publisher(Odometry, "odom", SENSOR_PUB_QOS)
@@ -62,7 +68,8 @@ class FakeDriver(Node):
         self.create_timer(1.0 / cfg["publish_rate"], self._tick)
 
     def _on_command(self, msg: WheelTorques) -> None:
-        self.sim.offer_command(self.sim.time, msg.left, msg.right)
+        if self.fault != "deaf":
+            self._commands.append((self.sim.time + self.command_latency, msg.left, msg.right))
 
     def _tick(self) -> None:
         now = self.get_clock().now().nanoseconds
@@ -74,6 +81,9 @@ class FakeDriver(Node):
                 self._next_ns += self._period_ns
 
     def _sample(self, stamp_ns: int) -> None:
+        while self._commands and self._commands[0][0] <= self.sim.time:
+            _, left, right = self._commands.popleft()
+            self.sim.offer_command(self.sim.time, left, right)
         self.sim.advance(self.sim.steps_per_publish)
         s = self.sim.state
         stamp = to_stamp(stamp_ns)
@@ -116,9 +126,10 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--fault", choices=FAULTS, default="none")
     ap.add_argument("--burst", type=int, default=1, help="samples published at once (each at its own stamp)")
+    ap.add_argument("--command-latency", type=float, default=0.0, help="driver seconds from a command to its use")
     args = ap.parse_args(remove_ros_args(sys.argv)[1:])
     rclpy.init(args=sys.argv)
-    node = FakeDriver(args.fault, args.burst)
+    node = FakeDriver(args.fault, args.burst, args.command_latency)
     try:
         rclpy.spin(node)
     except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):

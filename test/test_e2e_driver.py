@@ -23,9 +23,10 @@ def check_driver(env: dict[str, str], *args: str) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=120)
 
 
-def fake_driver(env: dict[str, str], tmp_path: Path, fault: str, burst: int = 1) -> NodeProcess:
-    return NodeProcess([sys.executable, str(FAKE_DRIVER), "--fault", fault, "--burst", str(burst)], env, tmp_path,
-                       f"fake-{fault}-{burst}")
+def fake_driver(env: dict[str, str], tmp_path: Path, fault: str, burst: int = 1,
+                command_latency: float = 0.0) -> NodeProcess:
+    return NodeProcess([sys.executable, str(FAKE_DRIVER), "--fault", fault, "--burst", str(burst),
+                        "--command-latency", str(command_latency)], env, tmp_path, f"fake-{fault}-{burst}")
 
 
 def test_sim_node_passes_every_check(launch, ros_env):
@@ -64,10 +65,12 @@ BROKEN = [
     ("unstamped", "FAIL  odom stamps"),
     ("scan_nan", "FAIL  scan fields: scan 0: "),
     ("scan_unlinked", "FAIL  scan frame: 'laser' is not linked to base_link"),
+    ("deaf", "FAIL  response to wheel_torque_cmd: mean wheel effort +0.000 -> +0.000 N·m for +1 N·m commanded"
+             " (no answer within 1 s)"),
 ]
 
 
-@pytest.mark.parametrize(("fault", "expected"), BROKEN)
+@pytest.mark.parametrize(("fault", "expected"), BROKEN, ids=[fault for fault, _ in BROKEN])
 def test_broken_drivers_fail_the_check_that_names_their_fault(ros_env, tmp_path, fault, expected):
     driver = fake_driver(ros_env, tmp_path, fault)
     try:
@@ -86,10 +89,11 @@ def test_a_driver_that_publishes_in_bursts_keeps_its_rate(ros_env, tmp_path):
     """20 samples at once every 100 ms (a bus that delivers them together, or a host that held the driver
     back): every sample reaches the checker, whose rate is the driver's 200 Hz. (CI once failed the
     well-behaved driver at 154 Hz: the checker's 5-deep queue dropped the late samples published at once.)
-    Its commands act up to 100 ms late, so the torque pulse is made longer than that."""
+    Its commands act up to 100 ms late, longer than the torque pulse: the checker times the pulse from the
+    driver's first answer."""
     driver = fake_driver(ros_env, tmp_path, "none", burst=20)
     try:
-        done = check_driver(ros_env, "--pulse", "0.3")
+        done = check_driver(ros_env)
     finally:
         driver.stop()
     assert done.returncode == 0, done.stdout + done.stderr + driver.output
@@ -98,6 +102,21 @@ def test_a_driver_that_publishes_in_bursts_keeps_its_rate(ros_env, tmp_path):
     assert all(abs(float(r) - 200.0) <= 10.0 for r in rates), done.stdout
 
 
+def test_a_driver_whose_commands_act_late_is_judged_on_the_pulse_it_applied(ros_env, tmp_path):
+    """Commands used 0.3 s after they come, three times the 0.1 s pulse: before, the pulse ended before the
+    driver applied it (zero effort: FAIL); now it lasts 0.1 s from the answer, which the line reports."""
+    driver = fake_driver(ros_env, tmp_path, "none", command_latency=0.3)
+    try:
+        done = check_driver(ros_env)
+    finally:
+        driver.stop()
+    assert done.returncode == 0, done.stdout + done.stderr + driver.output
+    (latency,) = re.findall(r"PASS  response to wheel_torque_cmd: .* answered after ([0-9.]+) s", done.stdout)
+    assert 0.3 <= float(latency) <= 0.3 + 0.02, done.stdout  # the driver's latency, within a few samples
+    assert "PASS  pitch sign vs odometry" in done.stdout
+
+
+@pytest.mark.alone  # a robot balanced on the wall clock for up to 45 s: beside another graph, its host stalls it
 def test_another_driver_passes_and_world_node_drives_it_to_a_target(launch, ros, ros_env, tmp_path):
     driver = fake_driver(ros_env, tmp_path, "none")
     try:

@@ -30,6 +30,7 @@ from twbr_common.params import default_of
 from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, TF_STATIC_QOS, stamp_seconds
 from twbr_msgs.msg import WheelTorques
 from twbr_runner.conformance import (
+    ANSWER_LIMIT_S,
     COMMAND_TOPIC,
     SCAN_TOPIC,
     SENSOR_TOPICS,
@@ -73,7 +74,8 @@ class DriverChecker(Node):
         self.joint_names: set[tuple[str, ...]] = set()
         self.last_speed = 0.0
         self.last_pitch = 0.0
-        self.efforts: list[float] = []
+        self.efforts: list[tuple[float, float]] = []  # (stamp, mean of the two wheels' effort)
+        self.reports_effort = False
         self.torque = 0.0
         self._advanced_at = time.monotonic()  # wall time of the odom stamp's last advance
         self._since_advance = 0  # odom messages since
@@ -146,7 +148,12 @@ class DriverChecker(Node):
         self.stamps["joint_states"].append(stamp_seconds(msg.header.stamp))
         self.joint_names.add(tuple(msg.name))
         if len(msg.effort) >= 2:
-            self.efforts.append(mean(msg.effort[:2]))
+            self.reports_effort = True
+            self.efforts.append((stamp_seconds(msg.header.stamp), mean(msg.effort[:2])))
+
+    def answered_at(self, effort: float) -> float | None:
+        """The driver's stamp of its first sample whose effort reached `effort`, if any."""
+        return next((t for t, e in self.efforts if e >= effort), None)
 
     def driver_time(self) -> float:
         return self.stamps["odom"][-1] if self.stamps["odom"] else 0.0
@@ -197,19 +204,30 @@ def run_checks(node: DriverChecker, args: argparse.Namespace) -> list[Check]:
         checks.append(check_rate(scan, node.stamps[scan], args.scan_rate, args.tolerance))
         checks.append(check_scan_fields(node.scans))
         checks.append(check_scan_frame({s.frame for s in node.scans}, node.links))
-    # Active: a short forward torque pulse, then zero torque again.
-    effort_before = mean(node.efforts[-20:]) if node.efforts else 0.0
+    # Active: a forward torque pulse of `pulse` driver seconds from the driver's first answer (its effort
+    # halfway to the command), then zero torque again; a driver that reports no effort is timed from the
+    # command, one that never answers is judged after ANSWER_LIMIT_S.
+    effort_before = mean(e for _, e in node.efforts[-20:]) if node.efforts else 0.0
     v0, p0 = node.last_speed, node.last_pitch
     node.efforts.clear()
     node.torque = args.torque
     t0 = node.driver_time()
-    spin_until(node, lambda: node.waited(t0, args.pulse), args.timeout + 5 * args.pulse)
+    answer = effort_before + 0.5 * args.torque
+
+    def pulse_over() -> bool:
+        start = node.answered_at(answer) if node.reports_effort else t0
+        return node.waited(t0, ANSWER_LIMIT_S) if start is None else node.waited(start, args.pulse)
+
+    spin_until(node, pulse_over, args.timeout + 5 * (ANSWER_LIMIT_S + args.pulse))
     v1, p1 = node.last_speed, node.last_pitch
-    effort_during = mean(node.efforts[len(node.efforts) // 2:]) if node.efforts else 0.0
+    start = node.answered_at(answer)
+    during = [e for t, e in node.efforts if start is None or t >= start + 0.5 * args.pulse]
+    effort_during = mean(during) if during else 0.0
     node.torque = 0.0
     spin_until(node, lambda: False, 0.2)
     checks.append(check_pitch_sign(v0, v1, p0, p1, args.torque))
-    checks.append(check_response(effort_before, effort_during, args.torque))
+    checks.append(check_response(effort_before, effort_during, args.torque,
+                                 None if start is None else start - t0))
     return checks
 
 
@@ -221,8 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tolerance", type=float, default=0.2, help="allowed relative rate error (default 0.2)")
     ap.add_argument("--window", type=float, default=1.0, help="driver seconds of passive listening")
     ap.add_argument("--torque", type=float, default=1.0, help="forward torque pulse on both wheels [N·m]")
-    ap.add_argument("--pulse", type=float, default=0.1, help="length of the torque pulse, driver seconds (longer"
-                    " than the driver's command latency: its response is judged on the pulse's second half)")
+    ap.add_argument("--pulse", type=float, default=0.1, help="length of the torque pulse, driver seconds from the driver's"
+                    " first answer in its effort (up to 1 s after the command); judged on the pulse's second half")
     ap.add_argument("--timeout", type=float, default=15.0, help="wall seconds to wait for the driver")
     ap.add_argument("--scan-rate", type=float, default=default_of(LIDAR_SPECS, "lidar.rate"),
                     help="expected rate of scan [Hz]")

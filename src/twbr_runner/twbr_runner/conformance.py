@@ -136,11 +136,20 @@ def check_pitch_sign(v_before: float, v_after: float, pitch_before: float, pitch
     return Check("pitch sign vs odometry", True, detail)
 
 
-def check_response(effort_before: float, effort_during: float, torque: float) -> Check:
-    """The commanded torque shows up in joint_states' effort (the motors' torque)."""
+# Driver seconds a driver may take to show the commanded torque in joint_states' effort: check_driver times
+# its pulse from that answer, so a driver whose host held it back (samples published late, in a burst) is
+# judged on the pulse it applied, not on the command's way to it.
+ANSWER_LIMIT_S = 1.0
+
+
+def check_response(effort_before: float, effort_during: float, torque: float, latency: float | None = None) -> Check:
+    """The commanded torque shows up in joint_states' effort (the motors' torque); `latency` is the driver's
+    time from the command to that answer, None if it never came."""
     ok = effort_during > 0.5 * torque and effort_during > effort_before
+    answered = f" (no answer within {ANSWER_LIMIT_S:g} s)" if latency is None else f", answered after {latency:.3f} s"
     return Check("response to wheel_torque_cmd", ok,
-                 f"mean wheel effort {effort_before:+.3f} -> {effort_during:+.3f} N·m for +{torque:g} N·m commanded")
+                 f"mean wheel effort {effort_before:+.3f} -> {effort_during:+.3f} N·m for +{torque:g} N·m commanded"
+                 + answered)
 
 
 def check_scan_fields(scans: Sequence[ScanSample]) -> Check:
