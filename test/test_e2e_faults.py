@@ -78,6 +78,10 @@ def drop_warnings(log: str, stream: str) -> list[str]:
     return re.findall(rf"dropped {stream}: [^\n]*", log)
 
 
+# Alone: the bag is judged in the order the recorder received it, and beside another graph the recorder's
+# reliable odom stream lagged the injector's by more than 0.1 s, so an out-of-order garbage odom (x = -3 m)
+# came first with a stamp the real one then repeated (two-worker CI, eighth session).
+@pytest.mark.alone
 def test_garbage_on_every_input_is_dropped_and_the_run_is_unchanged(tmp_path, ros_env):
     started = time.monotonic()
     returncode, out, err, sent = run_beside_injector(tmp_path, ros_env, "use_sim_time:=true")
