@@ -29,6 +29,18 @@ def fake_driver(env: dict[str, str], tmp_path: Path, fault: str, burst: int = 1,
                         "--command-latency", str(command_latency)], env, tmp_path, f"fake-{fault}-{burst}")
 
 
+def check_fake_driver(env: dict[str, str], tmp_path: Path, *args: str, fault: str = "none", burst: int = 1,
+                      command_latency: float = 0.0) -> tuple[subprocess.CompletedProcess, str]:
+    """check_driver beside a fake driver (stopped after: the check's torque pulse tipped it over), and that
+    driver's output."""
+    driver = fake_driver(env, tmp_path, fault, burst, command_latency)
+    try:
+        done = check_driver(env, *args)
+    finally:
+        driver.stop()
+    return done, driver.output
+
+
 def test_sim_node_passes_every_check(launch, ros_env):
     launch("twbr_sim", "sim_node", params=("robot.yaml", "sim.yaml"))
     done = check_driver(ros_env)
@@ -72,14 +84,10 @@ BROKEN = [
 
 @pytest.mark.parametrize(("fault", "expected"), BROKEN, ids=[fault for fault, _ in BROKEN])
 def test_broken_drivers_fail_the_check_that_names_their_fault(ros_env, tmp_path, fault, expected):
-    driver = fake_driver(ros_env, tmp_path, fault)
-    try:
-        # --timeout: how long the checker waits for a driver's topics (the missing imu's whole wait); patience
-        # for a loaded host's discovery, not a budget
-        done = check_driver(ros_env, "--timeout", "10")
-    finally:
-        driver.stop()
-    assert done.returncode == 1, done.stdout + done.stderr + driver.output
+    # --timeout: how long the checker waits for a driver's topics (the missing imu's whole wait); patience
+    # for a loaded host's discovery, not a budget
+    done, output = check_fake_driver(ros_env, tmp_path, "--timeout", "10", fault=fault)
+    assert done.returncode == 1, done.stdout + done.stderr + output
     assert expected in done.stdout
     # and the driver was there: its odom was offered and seen (a checker alone also fails, for no driver)
     assert "PASS  odom type" in done.stdout and "odom received" not in done.stdout, done.stdout
@@ -91,26 +99,18 @@ def test_a_driver_that_publishes_in_bursts_keeps_its_rate(ros_env, tmp_path):
     well-behaved driver at 154 Hz: the checker's 5-deep queue dropped the late samples published at once.)
     Its commands act up to 100 ms late, longer than the torque pulse: the checker times the pulse from the
     driver's first answer."""
-    driver = fake_driver(ros_env, tmp_path, "none", burst=20)
-    try:
-        done = check_driver(ros_env)
-    finally:
-        driver.stop()
-    assert done.returncode == 0, done.stdout + done.stderr + driver.output
+    done, output = check_fake_driver(ros_env, tmp_path, burst=20)
+    assert done.returncode == 0, done.stdout + done.stderr + output
     rates = re.findall(r"PASS  (?:odom|imu|joint_states) rate: ([0-9.]+) Hz", done.stdout)
-    assert len(rates) == 3, done.stdout + done.stderr + driver.output
+    assert len(rates) == 3, done.stdout + done.stderr + output
     assert all(abs(float(r) - 200.0) <= 10.0 for r in rates), done.stdout
 
 
 def test_a_driver_whose_commands_act_late_is_judged_on_the_pulse_it_applied(ros_env, tmp_path):
     """Commands used 0.3 s after they come, three times the 0.1 s pulse: before, the pulse ended before the
     driver applied it (zero effort: FAIL); now it lasts 0.1 s from the answer, which the line reports."""
-    driver = fake_driver(ros_env, tmp_path, "none", command_latency=0.3)
-    try:
-        done = check_driver(ros_env)
-    finally:
-        driver.stop()
-    assert done.returncode == 0, done.stdout + done.stderr + driver.output
+    done, output = check_fake_driver(ros_env, tmp_path, command_latency=0.3)
+    assert done.returncode == 0, done.stdout + done.stderr + output
     (latency,) = re.findall(r"PASS  response to wheel_torque_cmd: .* answered after ([0-9.]+) s", done.stdout)
     # the driver's 0.3 s, plus the command's way to it (up to 0.05 s measured beside another graph)
     assert 0.3 <= float(latency) <= 0.3 + 0.1, done.stdout
@@ -119,12 +119,8 @@ def test_a_driver_whose_commands_act_late_is_judged_on_the_pulse_it_applied(ros_
 
 @pytest.mark.alone  # a robot balanced on the wall clock for up to 45 s: beside another graph, its host stalls it
 def test_another_driver_passes_and_world_node_drives_it_to_a_target(launch, ros, ros_env, tmp_path):
-    driver = fake_driver(ros_env, tmp_path, "none")
-    try:
-        done = check_driver(ros_env)
-        assert done.returncode == 0, done.stdout + done.stderr + driver.output
-    finally:
-        driver.stop()  # the check's torque pulse tipped it over: nothing balanced it
+    done, output = check_fake_driver(ros_env, tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr + output
     driver = fake_driver(ros_env, tmp_path, "none")
     try:
         scenario = tmp_path / "ahead.yaml"
