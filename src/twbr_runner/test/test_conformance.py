@@ -86,8 +86,10 @@ def test_pitch_sign_and_response():
     assert check_pitch_sign(0.0, 0.38, 0.0, -0.045, 1.0).passed
     assert "pitch should fall" in check_pitch_sign(0.0, 0.38, 0.0, 0.045, 1.0).detail
     assert "did not speed up" in check_pitch_sign(0.0, 0.0, 0.0, -0.045, 1.0).detail
-    assert check_response(0.0, 1.0, 1.0).passed
-    assert not check_response(0.0, 0.18, 1.0).passed
+    assert check_response(0.0, 1.0, 1.0, 0.005).passed
+    assert not check_response(0.0, 0.18, 1.0, 0.005).passed
+    assert check_response(0.0, 1.0, 1.0, 0.005).detail.endswith(", answered after 0.005 s")
+    assert check_response(0.0, 0.0, 1.0, None).detail.endswith(" (no answer within 1 s)")
 
 
 def scan_sample(ranges, angle_max=None, range_min=0.15, range_max=12.0) -> ScanSample:

@@ -142,7 +142,7 @@ def check_pitch_sign(v_before: float, v_after: float, pitch_before: float, pitch
 ANSWER_LIMIT_S = 1.0
 
 
-def check_response(effort_before: float, effort_during: float, torque: float, latency: float | None = None) -> Check:
+def check_response(effort_before: float, effort_during: float, torque: float, latency: float | None) -> Check:
     """The commanded torque shows up in joint_states' effort (the motors' torque); `latency` is the driver's
     time from the command to that answer, None if it never came."""
     ok = effort_during > 0.5 * torque and effort_during > effort_before
