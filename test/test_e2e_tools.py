@@ -1,5 +1,5 @@
 """Tools that lose nothing and leave nothing behind, through the real processes: a runner killed with
-SIGKILL, and a recorder killed with SIGKILL (a power cut) whose bag is recovered."""
+SIGKILL, a recorder killed with SIGKILL (a power cut) whose bag is recovered, and one held back mid-run."""
 
 from __future__ import annotations
 
@@ -11,8 +11,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import psutil
 import pytest
-from conftest import recorded_file
+from conftest import RUNNER, recorded_file
+from rosgraph_msgs.msg import Clock
 
 from twbr_runner.bag_reader import BagError, bag_info, read_messages
 from twbr_runner.spawn import NodeProcess, node_executable
@@ -55,6 +57,37 @@ def test_a_runner_killed_with_sigkill_leaves_no_node_behind_and_a_closed_bag(tmp
     (run_dir,) = tmp_path.iterdir()
     info = bag_info(run_dir / "bag")  # the recorder closed it on its way out
     assert info["message_count"] > 100
+
+
+def test_a_recorder_held_back_mid_run_still_records_every_step_of_it(tmp_path, ros, ros_env):
+    """The runner's recorder is niced: on a loaded machine it can wait for the CPU while the lockstep loop runs
+    on. It catches up from the publishers' history; before, the commands' history of 10 lost them (CI: 1199
+    of 1201 wheel torque commands in a bag)."""
+    runner = subprocess.Popen([*RUNNER, "step", "--no-figures", "--quiet", "--out", str(tmp_path)], env=ros_env,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    clock: list[float] = []
+    ros.node.create_subscription(Clock, "/clock", lambda m: clock.append(m.clock.sec + m.clock.nanosec * 1e-9), 10)
+    try:
+        assert ros.spin_until(lambda: clock and clock[-1] >= 1.0, 120.0), "the run did not start"
+        (recorder,) = [p for p in psutil.Process(runner.pid).children(recursive=True)
+                       if "recorder" in " ".join(p.cmdline())]
+        before = clock[-1]
+        recorder.suspend()
+        ros.spin_for(0.5)
+        recorder.resume()
+        held_back_s = clock[-1] - before
+        out, _ = runner.communicate(timeout=120)
+    finally:
+        if runner.poll() is None:
+            runner.kill()
+            runner.wait()
+    assert runner.returncode == 0, out
+    assert held_back_s >= 0.5, held_back_s  # sim time the loop ran on without the recorder: 100 steps or more
+    (run_dir,) = tmp_path.iterdir()
+    messages = read_messages(run_dir / "bag")
+    for topic in ("/wheel_torque_cmd", "/controller_state", "/odom", "/imu", "/joint_states"):
+        stamps = {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in messages[topic]}
+        assert len(stamps) == 1201, (topic, len(stamps))  # one per 5 ms step of the 6 s, from t = 0
 
 
 def test_a_recorder_killed_with_sigkill_leaves_a_bag_that_recover_bag_makes_readable(tmp_path, launch, ros_env):

@@ -25,7 +25,7 @@ from twbr_common.cdr import ImuFields, OdomTwist, imu_fields, odom_twist
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT, RATE_LIMIT
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_ns, stamp_seconds
+from twbr_common.ros_io import COMMAND_PUB_QOS, COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_ns, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_control.cascade import CascadeController, ControlOutput
 from twbr_control.collision_monitor import CollisionMonitor
@@ -58,7 +58,7 @@ class ControllerNode(Node):
         self.inputs.on_restart(self._restart)
         self._restart()
 
-        self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
+        self.pub_torque = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_PUB_QOS)
         self.pub_state = self.create_publisher(ControllerState, "controller_state", SENSOR_PUB_QOS)
         # Raw: the few fields the controller uses are read from the bytes (twbr_common.cdr).
         self.create_subscription(Odometry, "odom", self._on_odom_bytes, SENSOR_SUB_QOS, raw=True)

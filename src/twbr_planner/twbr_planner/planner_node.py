@@ -34,7 +34,7 @@ from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.jit import loading_kernels
 from twbr_common.markers import arrow
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
+from twbr_common.ros_io import COMMAND_PUB_QOS, MARKER_QOS, SENSOR_PUB_QOS, SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
 from twbr_common.ros_params import accept_changes, declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, PlannerState
@@ -72,9 +72,9 @@ class PlannerNode(Node):
         self.inputs.on_restart(self._restart)
         self._restart()
         self.stamped = self.cfg["enable_stamped_cmd_vel"]
-        self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self.pub_cmd = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_PUB_QOS)
         self.pub_state = self.create_publisher(PlannerState, "planner_state", SENSOR_PUB_QOS)
-        self.pub_markers = self.create_publisher(MarkerArray, "planner_markers", WORLD_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "planner_markers", MARKER_QOS)
         # The executor hands messages over in arrival order, and a simulator publishes the world of an
         # instant before its odom: every world sample queued before the odom that triggers planning is
         # taken first, the newest valid one kept. A queue of one would let a bad message that arrives

@@ -27,7 +27,7 @@ from tf2_msgs.msg import TFMessage
 
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.params import default_of
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, TF_STATIC_QOS, stamp_seconds
+from twbr_common.ros_io import COMMAND_PUB_QOS, SENSOR_SUB_QOS, TF_STATIC_QOS, stamp_seconds
 from twbr_msgs.msg import WheelTorques
 from twbr_runner.conformance import (
     ANSWER_LIMIT_S,
@@ -79,7 +79,7 @@ class DriverChecker(Node):
         self.torque = 0.0
         self._advanced_at = time.monotonic()  # wall time of the odom stamp's last advance
         self._since_advance = 0  # odom messages since
-        self.pub = self.create_publisher(WheelTorques, COMMAND_TOPIC[0], COMMAND_QOS)
+        self.pub = self.create_publisher(WheelTorques, COMMAND_TOPIC[0], COMMAND_PUB_QOS)
 
     def graph_checks(self) -> list[Check]:
         checks = []
@@ -96,7 +96,7 @@ class DriverChecker(Node):
         # Our publisher's profile as the graph reports it (defaults spelled out the same way as the driver's).
         ours = [p.qos_profile for p in self.get_publishers_info_by_topic(self.resolve_topic_name(topic))
                 if p.node_name == self.get_name()]
-        mine = ours[0] if ours else COMMAND_QOS
+        mine = ours[0] if ours else COMMAND_PUB_QOS
         checks.append(check_qos(topic, [_compatible(mine, s.qos_profile) for s in subscribers]))
         return checks
 

@@ -12,7 +12,7 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from twbr_common.params import ParamSpec
-from twbr_common.ros_io import COMMAND_QOS, stamp_seconds
+from twbr_common.ros_io import COMMAND_PUB_QOS, stamp_seconds
 from twbr_common.ros_params import declare, run_node
 from twbr_sim.scenario import command_at, load_scenario
 from twbr_sim.scenario_files import find_scenario
@@ -35,7 +35,7 @@ class CommandPlayer(Node):
         self.scenario = load_scenario(find_scenario(cfg["scenario"]))
         command_at(self.scenario, 0.0)  # loads the compiled profile before the publisher exists: no late step
         self.stamped = cfg["enable_stamped_cmd_vel"]
-        self.pub = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_QOS)
+        self.pub = self.create_publisher(TwistStamped if self.stamped else Twist, "cmd_vel", COMMAND_PUB_QOS)
         self._last: tuple[float, float] | None = None
         self._last_time = -float("inf")
         if self.get_parameter("use_sim_time").value:

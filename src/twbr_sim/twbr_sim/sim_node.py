@@ -28,9 +28,10 @@ from twbr_common.params import ConfigError
 from twbr_common.ros_io import (
     CLOCK_PUB_QOS,
     COMMAND_QOS,
+    MARKER_QOS,
     SENSOR_PUB_QOS,
     TF_STATIC_QOS,
-    WORLD_QOS,
+    WORLD_PUB_QOS,
     flush_publishers,
     stamp_ns,
     stamp_seconds,
@@ -91,7 +92,7 @@ class SimNode(Node):
         # them for the record (metrics, figures); with ideal sensors odom is the true state.
         self.pub_truth = (None if self.sim.ideal_sensors
                           else self.create_publisher(Odometry, "ground_truth", SENSOR_PUB_QOS))
-        self.pub_tf = self.create_publisher(TFMessage, "/tf", 100)
+        self.pub_tf = self.create_publisher(TFMessage, "/tf", SENSOR_PUB_QOS)
         self.pub_scan = self.pub_detections = None
         static = []  # the sensors above base_link, in one latched message
         if cfg["lidar.rate"] > 0.0:
@@ -103,13 +104,13 @@ class SimNode(Node):
         if static:
             self.pub_tf_static = self.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
             self.pub_tf_static.publish(TFMessage(transforms=static))
-        self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_QOS)
+        self.pub_status = self.create_publisher(SimStatus, "sim_status", WORLD_PUB_QOS)
         self.hosting_world = scenario is not None and cfg["host_world"]
         if self.hosting_world:
-            self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
-            self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
-            self.pub_world_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
-            self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
+            self.pub_target = self.create_publisher(Odometry, "target", WORLD_PUB_QOS)
+            self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_PUB_QOS)
+            self.pub_world_status = self.create_publisher(WorldStatus, "world_status", WORLD_PUB_QOS)
+            self.pub_markers = self.create_publisher(MarkerArray, "world_markers", MARKER_QOS)
         self.create_subscription(WheelTorques, "wheel_torque_cmd", self._on_command, COMMAND_QOS)
         owned = ["/clock", "odom", "imu", "joint_states", "sim_status"]
         self.graph = GraphWatch(self, owned + (["target", "obstacles", "world_status"] if self.hosting_world else []))

@@ -12,7 +12,7 @@ from rclpy.node import Node
 
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.params import ParamSpec
-from twbr_common.ros_io import COMMAND_QOS, SENSOR_SUB_QOS, stamp_seconds
+from twbr_common.ros_io import COMMAND_PUB_QOS, SENSOR_SUB_QOS, stamp_seconds
 from twbr_common.ros_params import declare, run_node
 from twbr_msgs.msg import WheelTorques
 from twbr_sim.torque_profiles import PROFILES, demo_torques
@@ -24,7 +24,7 @@ class TorqueDriver(Node):
     def __init__(self) -> None:
         super().__init__("torque_driver")
         self.profile = declare(self, DRIVER_SPECS)["profile"]
-        self.pub = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_QOS)
+        self.pub = self.create_publisher(WheelTorques, "wheel_torque_cmd", COMMAND_PUB_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
 
     def _on_odom(self, msg: Odometry) -> None:

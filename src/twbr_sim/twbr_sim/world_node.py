@@ -14,7 +14,7 @@ from visualization_msgs.msg import MarkerArray
 from twbr_common.graph_watch import GraphWatch
 from twbr_common.guard import POSITION_LIMIT
 from twbr_common.params import ParamSpec, default_of
-from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
+from twbr_common.ros_io import MARKER_QOS, SENSOR_SUB_QOS, WORLD_PUB_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_common.timing import Decimator
 from twbr_msgs.msg import ObstacleArray, WorldStatus
@@ -52,10 +52,10 @@ class WorldNode(Node):
         self.inputs.on_restart(self._restart)
         self._robot_xy: tuple[float, float] | None = None
         self._marker_due = Decimator(cfg["marker_rate"])
-        self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
-        self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
-        self.pub_status = self.create_publisher(WorldStatus, "world_status", WORLD_QOS)
-        self.pub_markers = self.create_publisher(MarkerArray, "world_markers", WORLD_QOS)
+        self.pub_target = self.create_publisher(Odometry, "target", WORLD_PUB_QOS)
+        self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_PUB_QOS)
+        self.pub_status = self.create_publisher(WorldStatus, "world_status", WORLD_PUB_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "world_markers", MARKER_QOS)
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_timer(1.0 / cfg["rate"], self._tick)
         self.graph = GraphWatch(self, ["target", "obstacles", "world_status"])

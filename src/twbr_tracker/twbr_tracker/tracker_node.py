@@ -34,7 +34,7 @@ from twbr_common.cdr import UNKNOWN_POSITION
 from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.guard import POSITION_LIMIT, SLOW_SIM_FUTURE_TOLERANCE, input_specs
 from twbr_common.params import ParamSpec
-from twbr_common.ros_io import SENSOR_SUB_QOS, WORLD_QOS, stamp_seconds
+from twbr_common.ros_io import MARKER_QOS, SENSOR_SUB_QOS, WORLD_PUB_QOS, stamp_seconds
 from twbr_common.ros_params import declare, input_streams, run_node
 from twbr_common.wire import heading_speed, range_bearing
 from twbr_msgs.msg import ObstacleArray
@@ -71,9 +71,9 @@ class TrackerNode(Node):
         self._waiting: dict[str, LaserScan | PoseArray] = {}
         self._last: dict[str, float] = {}
         self.latencies = LatencyRecord()  # scan and its odom in -> obstacles published, in constant memory
-        self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_QOS)
-        self.pub_target = self.create_publisher(Odometry, "target", WORLD_QOS)
-        self.pub_markers = self.create_publisher(MarkerArray, "tracker_markers", WORLD_QOS)
+        self.pub_obstacles = self.create_publisher(ObstacleArray, "obstacles", WORLD_PUB_QOS)
+        self.pub_target = self.create_publisher(Odometry, "target", WORLD_PUB_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, "tracker_markers", MARKER_QOS)
         self._handlers = {"scan": self._track, "target_detections": self._follow}
         self.create_subscription(Odometry, "odom", self._on_odom, SENSOR_SUB_QOS)
         self.create_subscription(LaserScan, "scan", lambda m: self._on_input("scan", m), SENSOR_SUB_QOS)
