@@ -73,8 +73,10 @@ def test_a_recorder_held_back_mid_run_still_records_every_step_of_it(tmp_path, r
                        if "recorder" in " ".join(p.cmdline())]
         before = clock[-1]
         recorder.suspend()
-        ros.spin_for(0.5)
-        recorder.resume()
+        try:
+            ros.spin_for(0.5)
+        finally:  # a stopped recorder would not act on the SIGTERM its runner's end sends it
+            recorder.resume()
         held_back_s = clock[-1] - before
         out, _ = runner.communicate(timeout=120)
     finally:

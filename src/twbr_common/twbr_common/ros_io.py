@@ -14,16 +14,15 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profi
 # RTF 3) lost 0.8 s of every stream at once in a bag when two graphs and two busy loops shared 2 cores;
 # 1000 keeps ~1.7 s of wall time. Keeping them costs memory (~1 MB a stream), never the publisher's time.
 STREAM_HISTORY = 1000
+RECORDED_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
 SENSOR_SUB_QOS = qos_profile_sensor_data
-SENSOR_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
-CLOCK_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
+SENSOR_PUB_QOS = CLOCK_PUB_QOS = RECORDED_PUB_QOS
 # Commands and world topics are reliable. Subscribers keep 10 (they want the newest); publishers keep
-# STREAM_HISTORY for the same reason as the streams: with 10, a recorder held back 0.5 s lost 147 of a
-# lockstep run's 1201 wheel torque commands. Markers are drawn, not measured: they keep 10.
+# STREAM_HISTORY for the same reason as the streams (docs/interfaces.md, QoS). Markers are drawn, not
+# measured: they keep 10.
 COMMAND_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-COMMAND_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
 WORLD_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-WORLD_PUB_QOS = QoSProfile(depth=STREAM_HISTORY, reliability=ReliabilityPolicy.RELIABLE)
+COMMAND_PUB_QOS = WORLD_PUB_QOS = RECORDED_PUB_QOS
 MARKER_QOS = WORLD_QOS
 # /tf_static, as tf2_ros' StaticTransformBroadcaster: a late subscriber still gets the transforms.
 TF_STATIC_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL, reliability=ReliabilityPolicy.RELIABLE)
