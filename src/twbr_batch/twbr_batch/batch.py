@@ -126,6 +126,8 @@ from twbr_sim.world import (
 from twbr_tracker.detection import N_DISC
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.evaluation import GATE, N_JUDGE, SETTLE, judge_lists
+from twbr_tracker.surfaces import REF_BINS
+from twbr_tracker.surfaces import settings_vector as surface_vector
 from twbr_tracker.target import (
     MISSION_PRIOR_STD,
     N_ESTIMATE,
@@ -305,7 +307,7 @@ MEMORY_ARRAYS_LAYOUT = Layout((
     "detected", "detected_at", "derivative", "reading", "odometry", "loads", "estimator_memory",
     "agent_state", "velocities", "tracks", "track_cov", "track_counters", "seen_positions", "seen_velocities",
     "seen_radii", "plan_positions", "seen_distances", "target_memory", "target_cov", "walls", "track_born",
-    "track_judged",
+    "track_judged", "surfaces",
 ))
 MA_LOOP = MEMORY_ARRAYS_LAYOUT["loop"]
 MA_CONTROL = MEMORY_ARRAYS_LAYOUT["control"]
@@ -338,6 +340,7 @@ MA_TARGET_COV = MEMORY_ARRAYS_LAYOUT["target_cov"]
 MA_WALLS = MEMORY_ARRAYS_LAYOUT["walls"]
 MA_TRACK_BORN = MEMORY_ARRAYS_LAYOUT["track_born"]  # the listed tracks' ids and first listing (judge_lists)
 MA_TRACK_JUDGED = MEMORY_ARRAYS_LAYOUT["track_judged"]  # per obstacle: the track it was last matched to
+MA_SURFACES = MEMORY_ARRAYS_LAYOUT["surfaces"]  # the tracker's earlier scans (twbr_tracker.surfaces)
 # What a sample reads of the world (a tuple in this order): each robot's target segment, the obstacles'
 # motions (agents.AGENT_LAYOUT) and waypoints [m], their radii [m], and the command profile (rows t [s],
 # v [m/s], omega [rad/s]); and of the sensors: their settings, each robot's sensor memories and generator,
@@ -345,10 +348,10 @@ MA_TRACK_JUDGED = MEMORY_ARRAYS_LAYOUT["track_judged"]  # per obstacle: the trac
 WORLD_ARRAYS = ("segments", "agents", "waypoints", "radii", "profile")
 SENSOR_ARRAYS = ("imu_c", "imu_m", "generators", "encoder_c", "encoder_m", "estimator_q")
 # And of perception: the scanner's settings (twbr_sim.lidar) and each robot's generator, the detector's
-# (target_sensor) likewise, the tracker's detection and tracking settings, and each robot's target filter
-# settings (its prior: the robot's own layout's target start).
+# (target_sensor) likewise, the tracker's detection, tracking, wall memory and surface settings, and each
+# robot's target filter settings (its prior: the robot's own layout's target start).
 PERCEPTION_ARRAYS = ("lidar_s", "lidar_generators", "look_s", "look_generators", "detection_d", "tracking_k",
-                     "walls_w", "target_s")
+                     "walls_w", "surfaces_u", "target_s")
 
 
 @kernel
@@ -357,18 +360,20 @@ def new_memories(n, run, n_obstacles, n_tracks, n_seen, n_walls):
     agents.AGENT_STATE_LAYOUT; n_tracks, n_seen, n_walls: the tracker's table, output rows and wall memory, 0
     without LiDAR)."""
     n_judged = n_obstacles if n_tracks > 0 else 0  # the judge's memory of each obstacle's last track
-    return (
+    return (  # noqa: RUF005 (numba types no unpacking into a literal)
         np.zeros((n, N_LOOP)), np.zeros((n, N_CONTROL_STATE)), np.zeros((n, N_CONTROL_OUTPUTS)),
         np.zeros((n, N_PLANNER_MEMORY)), np.zeros((n, int(run[U_RING_ROWS]), PROGRESS_COLUMNS)),
         np.zeros((n, N_PLANNER_OUTPUTS)), np.zeros((n, N_TALLY)), np.zeros((n, n_obstacles, 2)),
         np.zeros((n, n_obstacles)), np.zeros((n, n_obstacles), dtype=np.bool_), np.zeros((n, n_obstacles, 6)),
         np.zeros((n, N_STATE)), np.zeros((n, N_READING)), np.zeros((n, N_ENCODER_OUTPUTS)),
         np.zeros((n, N_TRACTION_OUTPUTS)), np.zeros((n, N_ESTIMATOR_MEMORY)),
+    ) + (  # two tuples: Python builds a literal of more than 30 items through a list, which numba cannot type
         np.zeros((n, n_obstacles, N_AGENT_STATE)), np.zeros((n, n_obstacles, 2)),
         np.zeros((n, n_tracks, N_TRACK)), np.zeros((n, n_tracks, 4, 4)), np.zeros((n, N_COUNTERS)),
         np.zeros((n, n_seen, 2)), np.zeros((n, n_seen, 2)), np.zeros((n, n_seen)), np.zeros((n, n_seen, 2)),
         np.zeros((n, n_seen)), np.zeros((n, N_TARGET_MEMORY)), np.zeros((n, 4, 4)), np.zeros((n, n_walls, N_WALL)),
         np.zeros((n, n_tracks, 2)), np.zeros((n, n_judged)),
+        np.full((n, 2, REF_BINS + 1 if n_tracks > 0 else 0, 3), np.nan),
     )
 
 
@@ -491,16 +496,18 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
     seen_distances = memories[MA_SEEN_DISTANCES]
     target_memory, target_cov = memories[MA_TARGET_MEMORY], memories[MA_TARGET_COV]
     track_born, track_judged = memories[MA_TRACK_BORN], memories[MA_TRACK_JUDGED]
-    walls = memories[MA_WALLS]
+    walls, surfaces = memories[MA_WALLS], memories[MA_SURFACES]
     segments, agents, waypoints, radii, profile = world  # WORLD_ARRAYS
     imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q = sensors  # SENSOR_ARRAYS
-    lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s = perception
+    lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, surfaces_u, target_s = (
+        perception)
     lidar_on = run[U_LIDAR] != 0.0
     looks = lidar_on and run[U_LOOK_PERIOD] > 0.0  # the planner follows the fused target
     # this call's scratch: a scan's ranges, the tracker's discs and output rows, a look, an estimate
     beams = int(lidar_s[lidar.LD_BEAMS]) if lidar_on else 0
     ranges = np.empty(beams)
     discs = np.empty((beams, N_DISC))
+    points = np.empty((beams, 2))
     rows = np.empty((seen_radii.shape[1], N_OBSTACLE_ROW))
     look = np.empty(2)
     fused = np.empty(N_ESTIMATE)
@@ -614,10 +621,11 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
             lidar.scan_noise(lidar_s, lidar_generators[j], ranges)
             for b in range(beams):
                 ranges[b] = np.float32(ranges[b])  # as a LaserScan carries them
-            count = tracker_scan(detection_d, tracking_k, walls_w, tracks[j], track_cov[j], walls[j], track_counters[j],
-                                 ts, ranges, run[U_SCAN_ANGLE_MIN], run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT],
-                                 odom_x, odom_y, odom_yaw, odom_velocity, yaw_rate, odom_pitch,
-                                 run[U_AXLE_HEIGHT], run[U_LIDAR_HEIGHT], discs, rows)
+            count = tracker_scan(detection_d, tracking_k, walls_w, surfaces_u, tracks[j], track_cov[j], walls[j],
+                                 surfaces[j], track_counters[j], ts, ranges, run[U_SCAN_ANGLE_MIN],
+                                 run[U_SCAN_ANGLE_INCREMENT], run[U_SCAN_TIME_INCREMENT], odom_x, odom_y, odom_yaw,
+                                 odom_velocity, yaw_rate, odom_pitch, run[U_AXLE_HEIGHT], run[U_LIDAR_HEIGHT], discs,
+                                 points, rows)
             for r in range(count):
                 seen_positions[j, r, 0] = rows[r, 1]
                 seen_positions[j, r, 1] = rows[r, 2]
@@ -734,7 +742,8 @@ def _samples(running, lo, hi, ended, params, states, c, a, run, world, sensors, 
 @parallel_kernel
 def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, radii, profile,
                 results, traces, imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q, lidar_s,
-                lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s, lanes, threads):
+                lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, surfaces_u, target_s, lanes,
+                threads):
     """All robots' runs, sample by sample: every running robot's sample (_samples, a share of the robots per
     thread), then their physics until the next sample in groups of `lanes` robots
     (dynamics.advance_upright_lanes, in parallel over the groups, vectorised over a group's robots). A
@@ -760,7 +769,8 @@ def _run_robots(params, states, c, a, run, segments, draws, agents, waypoints, r
     loop, derivative, loads = memories[MA_LOOP], memories[MA_DERIVATIVE], memories[MA_LOADS]
     world = (segments, agents, waypoints, radii, profile)  # WORLD_ARRAYS
     sensors = (imu_c, imu_m, generators, encoder_c, encoder_m, estimator_q)  # SENSOR_ARRAYS
-    perception = (lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, target_s)
+    perception = (lidar_s, lidar_generators, look_s, look_generators, detection_d, tracking_k, walls_w, surfaces_u,
+                  target_s)
     friction = run[U_FRICTION]
     derive = reads_derivative(run)
     torque_limits = np.empty(n)
@@ -977,5 +987,5 @@ def run_batch(
                     agents, waypoints, radii, profile, results, traces, imu_c, imu_m, generators,
                     encoder_c, encoder_m, estimator_vector(control_cfg), lidar_s, lidar_generators,
                     look_vector(sim_cfg), look_generators, detection_vector(tracker_cfg), tracking_k,
-                    wall_vector(tracker_cfg), target_s, lanes, get_num_threads())
+                    wall_vector(tracker_cfg), surface_vector(tracker_cfg), target_s, lanes, get_num_threads())
     return BatchResult(results, traces if record else None, physics_rate)

@@ -33,7 +33,7 @@ def detected(ranges, x=0.0, y=0.0, yaw=0.0, pitch=0.0, speed=0.0, yaw_rate=0.0, 
     out = np.empty((len(ranges), N_DISC))
     cfg = {**defaults(DETECTION_SPECS), **{f"detection.{k}": v for k, v in detection.items()}}
     n = detect(settings_vector(cfg), ranges, -math.pi, math.radians(1.0), STEP, x, y, yaw,
-               speed, yaw_rate, pitch, AXLE, HEIGHT, out)
+               speed, yaw_rate, pitch, AXLE, HEIGHT, out, np.empty((len(ranges), 2)))
     return out[:n]
 
 

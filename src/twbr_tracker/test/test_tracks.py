@@ -56,7 +56,7 @@ def run(people, seconds: float, noisy: bool = True, seed: int = 1, detection: di
         scan_noise(ls, g, ranges)
         discs = np.empty((360, N_DISC))
         m = detect(ds, ranges, -math.pi, math.radians(1.0), 0.1 / 360, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, AXLE,
-                   lidar_cfg["lidar.height"], discs)
+                   lidar_cfg["lidar.height"], discs, np.empty((360, 2)))
         # the scan's beams are spread over its turn: the tracker takes the scan at its middle instant
         mark_occluded(ks, tracks, n, t, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0)
         n, next_id = track_step(ks, tracks, cov, n, next_id, t, discs, m)

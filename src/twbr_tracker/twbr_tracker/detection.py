@@ -75,14 +75,18 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 # One disc: centre [m], radius [m], whether it is part of a wall's chain (1) or a compact object (0), when
 # its beams saw it [s after the scan's first beam]: a person walks 5 cm in a 10 Hz scanner's turn, and
 # whether it is clipped (1): a closer return right beside either end, so what shows may be part of it
-# only and its fitted centre is off towards the part that shows.
-DISC_LAYOUT = Layout(("x", "y", "radius", "wall", "t", "clipped"))
+# only and its fitted centre is off towards the part that shows; its points (rows lo..hi-1 of detect's
+# points), and whether they lie on a surface an earlier scan saw (still: surfaces.py marks it).
+DISC_LAYOUT = Layout(("x", "y", "radius", "wall", "t", "clipped", "lo", "hi", "still"))
 DC_X = DISC_LAYOUT["x"]
 DC_Y = DISC_LAYOUT["y"]
 DC_RADIUS = DISC_LAYOUT["radius"]
 DC_WALL = DISC_LAYOUT["wall"]
 DC_T = DISC_LAYOUT["t"]
 DC_CLIPPED = DISC_LAYOUT["clipped"]
+DC_LO = DISC_LAYOUT["lo"]
+DC_HI = DISC_LAYOUT["hi"]
+DC_STILL = DISC_LAYOUT["still"]
 N_DISC = len(DISC_LAYOUT)
 
 
@@ -307,8 +311,11 @@ def _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y):
 
 
 @kernel
-def _put_disc(discs, n, x, y, radius, wall, seen, clipped):
-    """Row n of `discs` (DISC_LAYOUT)."""
+def _put_disc(discs, n, x, y, radius, wall, seen, clipped, lo, hi):
+    """Row n of `discs` (DISC_LAYOUT), not still until surfaces.py says so."""
+    discs[n, DC_LO] = lo
+    discs[n, DC_HI] = hi
+    discs[n, DC_STILL] = 0.0
     discs[n, DC_X] = x
     discs[n, DC_Y] = y
     discs[n, DC_RADIUS] = radius
@@ -338,18 +345,18 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
             if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
                     and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
-                _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped)
+                _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped, lo, hi)
             elif _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a short arc of a large disc
-                _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped)  # (partly hidden, or seen end on)
+                _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi)  # (partly hidden, or seen end on)
             else:  # the near side of a disc of the segment's width
                 d = math.hypot(cx - scanner_x, cy - scanner_y)
                 _put_disc(discs, n, cx + half * (cx - scanner_x) / d, cy + half * (cy - scanner_y) / d, half, 0.0,
-                          seen, clipped)
+                          seen, clipped, lo, hi)
             n += 1
             continue
         fx, fy, fr = _circle_fit(points, lo, hi)
         if _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a large disc
-            _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped)
+            _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi)
             n += 1
             continue
         pieces = math.ceil(extent / s[DS_CHAIN_SPACING])
@@ -375,19 +382,19 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             reach = 0.0
             for i in range(a, b):
                 reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
-            _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped)
+            _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped, a, b)
             n += 1
     return n
 
 
 @kernel
 def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch, axle_height,
-           height, discs):
+           height, discs, points):
     """Discs in odom from one scan begun at the pose (x, y, yaw) [m, rad], moving at speed [m/s] and
     yaw_rate [rad/s], pitched by pitch [rad], its beams time_increment [s] apart; returns how many rows of
-    `discs` (at least len(ranges) rows) are filled."""
+    `discs` (at least len(ranges) rows) are filled. `points` (as many rows, 2 columns) is left holding the
+    scan's points [m] in odom, nan in the rows after the last (the discs' DC_LO:DC_HI index them)."""
     n_beams = ranges.shape[0]
-    points = np.empty((n_beams, 2))
     beams = np.empty(n_beams, dtype=np.int64)
     times = np.empty(n_beams)
     first = 0  # start the round at a beam without a return, so no object is cut in two at the seam
@@ -397,6 +404,7 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
             break
     n = scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
                     axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams, times)
+    points[n:, :] = math.nan
     scanner_x, scanner_y, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, height * math.sin(pitch))
     starts = np.empty(n_beams + 1, dtype=np.int64)
     count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)

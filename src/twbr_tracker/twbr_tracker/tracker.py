@@ -14,6 +14,8 @@ from twbr_common.params import ParamSpec
 from twbr_sim.lidar import scanner_at
 from twbr_tracker.detection import DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
+from twbr_tracker.surfaces import SURFACE_SPECS, mark_still, new_surfaces, remember_scan
+from twbr_tracker.surfaces import settings_vector as surface_vector
 from twbr_tracker.tracks import (
     TR_CONFIRMED,
     TR_ID,
@@ -38,7 +40,8 @@ GEOMETRY_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("axle_height", 0.10, "the axle above the floor (the wheel radius)", "m", 0.0, 5.0),
     ParamSpec("lidar_height", 0.25, "the scanner above the axle, along the body's axis", "m", 0.0, 5.0),
 )
-TRACKER_SPECS: tuple[ParamSpec, ...] = (*GEOMETRY_SPECS, *DETECTION_SPECS, *TRACK_SPECS, *WALL_MEMORY_SPECS)
+TRACKER_SPECS: tuple[ParamSpec, ...] = (*GEOMETRY_SPECS, *DETECTION_SPECS, *TRACK_SPECS, *WALL_MEMORY_SPECS,
+                                        *SURFACE_SPECS)
 WALL_IDS = 1_000_000  # a wall disc's id: this plus its place in the chain (tracks count up from 1)
 # The tracker's output, one row per obstacle, as the planner reads an ObstacleArray (twbr_common.cdr's rows):
 OBSTACLE_ROW = Layout(("id", "x", "y", "vx", "vy", "radius"))  # [m, m/s] in odom
@@ -62,22 +65,27 @@ class TrackedObstacle:
 
 
 @kernel
-def tracker_scan(d, k, w, tracks, cov, walls, counters, t, ranges, angle_min, angle_increment, time_increment, x, y,
-                 yaw, speed, yaw_rate, pitch, axle_height, lidar_height, discs, out):
+def tracker_scan(d, k, w, u, tracks, cov, walls, surfaces, counters, t, ranges, angle_min, angle_increment,
+                 time_increment, x, y, yaw, speed, yaw_rate, pitch, axle_height, lidar_height, discs, points, out):
     """The scan stamped t [s] (its first beam), begun at the pose (x, y, yaw) [m, rad] moving at speed [m/s]
     and yaw_rate [rad/s], pitched by pitch [rad]: the obstacles now into out's rows (OBSTACLE_ROW: the
     confirmed live tracks, static ones still, then the walls' discs, seen now or remembered:
-    wall_memory); returns their count. `discs` is scratch of at least one row per beam."""
+    wall_memory); returns their count. `discs` and `points` are scratch of at least one row per beam (as
+    detect takes them)."""
     m = detect(d, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-               axle_height, lidar_height, discs)
+               axle_height, lidar_height, discs, points)
+    mark_still(u, surfaces, points, discs, m)
     n = int(counters[K_COUNT])
     mark_occluded(k, tracks, n, t, ranges, angle_min, angle_increment, x, y, yaw)
     n, next_id = track_step(k, tracks, cov, n, int(counters[K_NEXT_ID]), t, discs, m)
     counters[K_COUNT] = n
     counters[K_NEXT_ID] = next_id
-    sx, sy, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, lidar_height * math.sin(pitch))  # as detect's
+    lean = lidar_height * math.sin(pitch)
+    sx, sy, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, lean)  # as detect's
     kept = remember_walls(w, walls, int(counters[K_WALLS]), t, discs, m, ranges, angle_min, angle_increment, sx, sy,
                           yaw)
+    remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
+                  yaw_rate, lean, sx, sy)
     counters[K_WALLS] = kept
     rows = 0
     for i in range(n):
@@ -118,8 +126,10 @@ class Tracker:
         self._d = detection_vector(cfg)
         self._k = track_vector(cfg)
         self._w = wall_vector(cfg)
+        self._u = surface_vector(cfg)
         self.tracks, self.cov = new_tracks(self._k)
         self.walls = new_walls(self._w)
+        self.surfaces = new_surfaces()
         self.counters = np.zeros(N_COUNTERS)
         self.reset()
 
@@ -133,6 +143,7 @@ class Tracker:
         self.cov[:] = 0.0
         self.counters[K_COUNT] = 0
         self.counters[K_WALLS] = 0
+        self.surfaces[:] = math.nan
         self.counters[K_NEXT_ID] = max(self.counters[K_NEXT_ID], 1)
 
     def step(self, t: float, ranges: np.ndarray, angle_min: float, angle_increment: float, time_increment: float,
@@ -149,10 +160,11 @@ class Tracker:
         """`step`'s obstacles as the kernel leaves them: rows of OBSTACLE_ROW."""
         ranges = np.ascontiguousarray(ranges, dtype=np.float64)
         discs = np.empty((len(ranges), N_DISC))
+        points = np.empty((len(ranges), 2))
         out = np.empty((output_rows(self._k, self._w), N_OBSTACLE_ROW))
-        rows = tracker_scan(self._d, self._k, self._w, self.tracks, self.cov, self.walls, self.counters, t, ranges,
-                            angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-                            self.cfg["axle_height"], self.cfg["lidar_height"], discs, out)
+        rows = tracker_scan(self._d, self._k, self._w, self._u, self.tracks, self.cov, self.walls, self.surfaces,
+                            self.counters, t, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
+                            yaw_rate, pitch, self.cfg["axle_height"], self.cfg["lidar_height"], discs, points, out)
         return out[:rows]
 
     def warm_up(self) -> None:

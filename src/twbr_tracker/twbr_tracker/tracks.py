@@ -1,9 +1,10 @@
 """Tracks of the compact discs a scan shows (detection.py): a constant-velocity Kalman filter each, matched
 to the next scan's discs by the Hungarian method on a gated distance, born from an unmatched disc,
 confirmed after `confirm_hits` matches, dropped after `max_misses` scans without one (a tentative track at
-its first miss), and called moving above `moving_speed` (static again below half of it). A static track is
-published still (velocity 0): the filter's velocity of a post seen from a moving robot is noise, and a
-planner would evade it as if it walked.
+its first miss), and called moving above `moving_speed` (static again below half of it, or as soon as its
+disc lies on a surface an earlier scan saw: surfaces.py). A static track is published still (velocity 0):
+the filter's velocity of a post seen from a moving robot is noise, and a planner would evade it as if it
+walked.
 
 A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
 closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
@@ -35,7 +36,7 @@ from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_tracker.assignment import assign
-from twbr_tracker.detection import DC_CLIPPED, DC_RADIUS, DC_T, DC_WALL, DC_X, DC_Y
+from twbr_tracker.detection import DC_CLIPPED, DC_RADIUS, DC_STILL, DC_T, DC_WALL, DC_X, DC_Y
 
 TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.gate", 0.8, "a disc farther than this from a track's prediction is not its own", "m",
@@ -296,6 +297,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     _associate(s, tracks, cov, n, discs, compact, m, taken, match, True)  # the discs left, to the lost tracks
     for j in range(n):
         k = match[j]
+        still = False
         if tracks[j, TR_LOST] != 0.0:
             if k >= 0:  # re-identified: the track is back, id and all
                 d = compact[k]
@@ -313,11 +315,15 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
             tracks[j, TR_SEEN] = t
             if tracks[j, TR_HITS] >= s[TS_CONFIRM_HITS]:
                 tracks[j, TR_CONFIRMED] = 1.0
+            still = discs[d, DC_STILL] != 0.0
         elif tracks[j, TR_OCCLUDED] == 0.0 or tracks[j, TR_CONFIRMED] == 0.0:
             tracks[j, TR_MISSES] += 1.0
-        # static / moving, with hysteresis: moving above moving_speed, static again below half of it
+        # static / moving, with hysteresis: moving above moving_speed, static again below half of it, and
+        # static whatever its speed while its disc lies on a surface an earlier scan saw (surfaces.py)
         speed = math.hypot(tracks[j, TR_VX], tracks[j, TR_VY])
-        if speed > s[TS_MOVING_SPEED]:
+        if still:
+            tracks[j, TR_MOVING] = 0.0
+        elif speed > s[TS_MOVING_SPEED]:
             tracks[j, TR_MOVING] = 1.0
         elif speed < 0.5 * s[TS_MOVING_SPEED]:
             tracks[j, TR_MOVING] = 0.0
