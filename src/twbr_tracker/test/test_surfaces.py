@@ -99,7 +99,8 @@ def test_a_person_crossing_in_the_same_view_is_published_moving():
 
 def test_points_on_in_front_of_and_behind_an_earlier_scan_s_wall():
     """A wall 3 m ahead seen from the origin: a point on it (between two of its returns) is on, a point
-    0.3 m in front of it is where the scan saw through, a point behind it is hidden (nothing to say)."""
+    0.3 m in front of it is where the scan saw through, a point just behind it is on something that moved
+    away, a point well behind it was hidden (nothing to say)."""
     ls = lidar_vector({**defaults(LIDAR_SPECS), "lidar.range_noise_std": 0.0, "lidar.dropout": 0.0})
     u = surface_vector(defaults(SURFACE_SPECS))
     wall_points = np.column_stack([np.full(41, 3.0), np.linspace(-2.0, 2.0, 41)])
@@ -117,5 +118,6 @@ def test_points_on_in_front_of_and_behind_an_earlier_scan_s_wall():
     face = 3.0 - 0.5 * WALL_DISC
     assert point_state(u, older, face, 0.33) == 1
     assert point_state(u, older, face - 0.3, 0.33) == -1
-    assert point_state(u, older, face + 0.5, 0.33) == 0
+    assert point_state(u, older, face + 0.15, 0.33) == -1  # a little behind: what stood there moved away
+    assert point_state(u, older, face + 0.5, 0.33) == 0  # well behind: hidden then
     assert point_state(u, older, -2.0, 0.5) == -1  # behind the robot the scan saw nothing within range

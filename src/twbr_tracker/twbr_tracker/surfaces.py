@@ -9,14 +9,16 @@ scan between `surfaces.age` and twice that old, its points binned by their beari
 (in odom), and a disc whose points lie on that scan's surface (within `surfaces.tolerance` of a point or
 of the line between two neighbouring points), at least `surfaces.still_fraction` of those the earlier scan
 could judge, is still: its track is published without velocity whatever its filter reads. A point the
-earlier scan saw through (its return there was farther) is a vote against; a point it could not see
-(something closer stood in front) says nothing. A disc larger than `surfaces.max_radius` is never still
+earlier scan saw through (its return there was farther), or saw a little short of (within
+`surfaces.receded`: what stood there has moved away, as a person walking off does), is a vote against; a
+point it could not see (something well in front of it) says nothing. A disc larger than `surfaces.max_radius` is never still
 by this test (a compact piece of wall is at most detection.max_disc_extent long): a body 3 m across
 drifting sideways lies mostly on its own earlier surface, and is no wall. A person standing still, or a
 post, is still by it too (as the speed threshold would have them), and moves again as soon as its points
 leave what the earlier scan saw. This is the free-space test of scan differencing in SLAM
 with the detection and tracking of moving objects (Wang, Thorpe, Thrun, Hebert & Durrant-Whyte 2007,
-IJRR 26(9)): a point where an earlier scan saw through is on something that moved.
+IJRR 26(9)): a point where an earlier scan saw through is on something that moved. Figures:
+benchmarks/HISTORY.md, issue 36, tenth session.
 """
 
 from __future__ import annotations
