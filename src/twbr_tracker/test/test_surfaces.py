@@ -112,8 +112,7 @@ def test_points_on_in_front_of_and_behind_an_earlier_scan_s_wall():
     points[~np.isfinite(ranges)] = math.nan
     surfaces = new_surfaces()
     for t in (0.0, u[SU_AGE]):  # the scan becomes the older one when the next is taken
-        remember_scan(u, surfaces, t, points, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                      0.0, 0.0, 0.0)
+        remember_scan(u, surfaces, t, points, ranges, -math.pi, math.radians(1.0), 0.0, 0.0, 0.0, 0.0, 0.0)
     older = surfaces[0]
     face = 3.0 - 0.5 * WALL_DISC
     assert point_state(u, older, face, 0.33) == 1

@@ -30,7 +30,6 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
-from twbr_sim.lidar import scanner_at
 from twbr_tracker.detection import DC_HI, DC_LO, DC_RADIUS, DC_STILL, DC_WALL
 
 SURFACE_SPECS: tuple[ParamSpec, ...] = (
@@ -90,10 +89,11 @@ def _bin(ox, oy, px, py):
 
 
 @kernel
-def remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
-                  yaw_rate, lean, sx, sy):
-    """This scan (its points in odom, nan rows unused; the no-returns of `ranges`, REP 117's +inf, placed as
-    scan_points places a beam) as the newer one when the newer one is `age` old; the newer becomes the older."""
+def remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, time_increment, yaw, yaw_rate, sx,
+                  sy):
+    """This scan, begun at the heading yaw [rad] turning at yaw_rate [rad/s] from the scanner at (sx, sy) [m]
+    (its points in odom, nan rows unused; the no-returns of `ranges`, REP 117's +inf, along their beams'
+    headings) as the newer one when the newer one is `age` old; the newer becomes the older."""
     if u[SU_AGE] <= 0.0 or t - surfaces[NEWER, 0, REF_T] < u[SU_AGE]:  # nan (none yet): not less
         return
     surfaces[OLDER, :, :] = surfaces[NEWER, :, :]
@@ -103,9 +103,8 @@ def remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, ti
     ref[0, REF_X] = sx
     ref[0, REF_Y] = sy
     for i in range(ranges.shape[0]):
-        if ranges[i] == math.inf:
-            _px, _py, heading = scanner_at(x, y, yaw, speed, yaw_rate, i * time_increment, lean)
-            bearing = (heading + angle_min + i * angle_increment) % (2.0 * math.pi)
+        if ranges[i] == math.inf:  # its heading as scanner_at turns it (its position does not matter here)
+            bearing = (yaw + yaw_rate * i * time_increment + angle_min + i * angle_increment) % (2.0 * math.pi)
             row = 1 + int(bearing * REF_BINS / (2.0 * math.pi)) % REF_BINS
             if math.isnan(ref[row, REF_RANGE]):
                 ref[row, REF_RANGE] = math.inf

@@ -80,12 +80,10 @@ def tracker_scan(d, k, w, u, tracks, cov, walls, surfaces, counters, t, ranges, 
     n, next_id = track_step(k, tracks, cov, n, int(counters[K_NEXT_ID]), t, discs, m)
     counters[K_COUNT] = n
     counters[K_NEXT_ID] = next_id
-    lean = lidar_height * math.sin(pitch)
-    sx, sy, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, lean)  # as detect's
+    sx, sy, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, lidar_height * math.sin(pitch))  # as detect's
     kept = remember_walls(w, walls, int(counters[K_WALLS]), t, discs, m, ranges, angle_min, angle_increment, sx, sy,
                           yaw)
-    remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed,
-                  yaw_rate, lean, sx, sy)
+    remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, time_increment, yaw, yaw_rate, sx, sy)
     counters[K_WALLS] = kept
     rows = 0
     for i in range(n):

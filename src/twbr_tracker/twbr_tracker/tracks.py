@@ -119,40 +119,51 @@ def new_tracks(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @kernel
 def kalman_predict(track, cov, t, q):
     """Track and covariance from their instant to t, white-noise acceleration of density q: x += v dt,
-    P = F P F' + Q."""
+    P = F P F' + Q (F = [I dt I; 0 I], written out: no matrix is allocated at every track and scan)."""
     dt = t - track[TR_T]
     if dt <= 0.0:
         return
     track[TR_X] += track[TR_VX] * dt
     track[TR_Y] += track[TR_VY] * dt
     track[TR_T] = t
-    f = np.eye(4)
-    f[0, 2] = dt
-    f[1, 3] = dt
-    p = f @ cov @ f.T
+    for j in range(4):  # F P: the position rows gain dt times the velocity rows
+        cov[0, j] += dt * cov[2, j]
+        cov[1, j] += dt * cov[3, j]
+    for i in range(4):  # (F P) F': the position columns likewise
+        cov[i, 0] += dt * cov[i, 2]
+        cov[i, 1] += dt * cov[i, 3]
     for axis in range(2):
-        p[axis, axis] += q * dt ** 3 / 3.0
-        p[axis, axis + 2] += q * dt ** 2 / 2.0
-        p[axis + 2, axis] += q * dt ** 2 / 2.0
-        p[axis + 2, axis + 2] += q * dt
-    cov[:, :] = p
+        cov[axis, axis] += q * dt ** 3 / 3.0
+        cov[axis, axis + 2] += q * dt ** 2 / 2.0
+        cov[axis + 2, axis] += q * dt ** 2 / 2.0
+        cov[axis + 2, axis + 2] += q * dt
 
 
 @kernel
 def kalman_update(track, cov, zx, zy, variance):
-    """The Kalman update on a measured position (zx, zy) [m] of isotropic `variance` [m²]."""
-    innovation_cov = cov[:2, :2].copy()
-    innovation_cov[0, 0] += variance
-    innovation_cov[1, 1] += variance
-    gain = np.ascontiguousarray(cov[:, :2]) @ np.linalg.inv(innovation_cov)
+    """The Kalman update on a measured position (zx, zy) [m] of isotropic `variance` [m²]: K = P H' S^-1
+    with S = H P H' + R the 2 x 2 innovation covariance, P = (I - K H) P, written out."""
+    s00 = cov[0, 0] + variance
+    s01 = cov[0, 1]
+    s10 = cov[1, 0]
+    s11 = cov[1, 1] + variance
+    det = s00 * s11 - s01 * s10
+    i00 = s11 / det
+    i01 = -s01 / det
+    i10 = -s10 / det
+    i11 = s00 / det
     ex = zx - track[TR_X]
     ey = zy - track[TR_Y]
-    for k in range(4):
-        track[TR_X + k] += gain[k, 0] * ex + gain[k, 1] * ey
-    h = np.zeros((2, 4))
-    h[0, 0] = 1.0
-    h[1, 1] = 1.0
-    cov[:, :] = (np.eye(4) - gain @ h) @ cov
+    t00, t01, t02, t03 = cov[0, 0], cov[0, 1], cov[0, 2], cov[0, 3]  # H P: what the gain takes from every row
+    t10, t11, t12, t13 = cov[1, 0], cov[1, 1], cov[1, 2], cov[1, 3]
+    for k in range(4):  # row k's gain reads only row k, so each row is updated in place
+        g0 = cov[k, 0] * i00 + cov[k, 1] * i10
+        g1 = cov[k, 0] * i01 + cov[k, 1] * i11
+        track[TR_X + k] += g0 * ex + g1 * ey
+        cov[k, 0] -= g0 * t00 + g1 * t10
+        cov[k, 1] -= g0 * t01 + g1 * t11
+        cov[k, 2] -= g0 * t02 + g1 * t12
+        cov[k, 3] -= g0 * t03 + g1 * t13
 
 
 @kernel
