@@ -29,7 +29,18 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
-from twbr_sim.lidar import scanner_at
+from twbr_sim.lidar import (
+    BEAM_DOWN,
+    BEAM_DT,
+    BEAM_DX,
+    BEAM_DY,
+    BEAM_HORIZONTAL,
+    BEAM_SX,
+    BEAM_SY,
+    N_BEAM,
+    scan_geometry,
+    scanner_at,
+)
 
 DETECTION_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("detection.floor_margin", 0.05, "a return this close above the floor is the floor", "m", 0.0, 1.0),
@@ -98,14 +109,11 @@ def settings_vector(cfg: dict) -> np.ndarray:
 
 
 @kernel
-def scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch, axle_height,
-                height, floor_margin, first, points, beams, times):
-    """The returns of a scan that began at the pose (x, y, yaw) moving at (speed, yaw_rate), as points in odom
-    [m] (points[k]), taken round from beam `first`, with their place in that order (beams[k]) and their
-    instant in the scan (times[k], s); the floor's and REP 117's infinities left out. Returns how many."""
-    sin_th = math.sin(pitch)
-    cos_th = math.cos(pitch)
-    z = axle_height + height * cos_th
+def scan_points(ranges, geometry, z, floor_margin, first, points, beams, times):
+    """The returns of a scan whose beams' geometry (twbr_sim.lidar.scan_geometry, the scanner `z` [m] above the
+    floor) is `geometry`, as points in odom [m] (points[k]), taken round from beam `first`, with their place in
+    that order (beams[k]) and their instant in the scan (times[k], s); the floor's and REP 117's infinities
+    left out. Returns how many."""
     n = 0
     n_beams = ranges.shape[0]
     for k in range(n_beams):
@@ -113,21 +121,13 @@ def scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, s
         r = ranges[i]
         if not math.isfinite(r):
             continue
-        bearing = angle_min + i * angle_increment
-        ca = math.cos(bearing)
-        sa = math.sin(bearing)
-        if z - r * ca * sin_th < floor_margin:  # the hit's height above the floor
+        if z - r * geometry[i, BEAM_DOWN] < floor_margin:  # the hit's height above the floor
             continue
-        # the scanner at this beam's instant, as twbr_sim.lidar.cast_scan moves it
-        sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, i * time_increment, height * sin_th)
-        c = math.cos(heading)
-        sn = math.sin(heading)
-        fwd = r * ca * cos_th
-        side = r * sa
-        points[n, 0] = sx + fwd * c - side * sn
-        points[n, 1] = sy + fwd * sn + side * c
+        along = r * geometry[i, BEAM_HORIZONTAL]  # the scanner at this beam's instant, as the cast moved it
+        points[n, 0] = geometry[i, BEAM_SX] + along * geometry[i, BEAM_DX]
+        points[n, 1] = geometry[i, BEAM_SY] + along * geometry[i, BEAM_DY]
         beams[n] = k
-        times[n] = i * time_increment
+        times[n] = geometry[i, BEAM_DT]
         n += 1
     return n
 
@@ -143,9 +143,16 @@ def segment_points(points, beams, n, scanner_x, scanner_y, gap, gap_per_metre, s
     count = 0
     starts[0] = 0
     for k in range(1, n):
-        far = math.hypot(points[k, 0] - scanner_x, points[k, 1] - scanner_y)
-        jump = math.hypot(points[k, 0] - points[k - 1, 0], points[k, 1] - points[k - 1, 1])
-        if beams[k] - beams[k - 1] > 2 or jump > gap + gap_per_metre * far:
+        if beams[k] - beams[k - 1] > 2:
+            count += 1
+            starts[count] = k
+            continue
+        fx = points[k, 0] - scanner_x
+        fy = points[k, 1] - scanner_y
+        jx = points[k, 0] - points[k - 1, 0]
+        jy = points[k, 1] - points[k - 1, 1]
+        allowed = gap + gap_per_metre * math.sqrt(fx * fx + fy * fy)  # (sqrt: libm's hypot is slower here)
+        if jx * jx + jy * jy > allowed * allowed:
             count += 1
             starts[count] = k
     count += 1
@@ -241,7 +248,9 @@ def _deepest_fold(s, points, beams, lo, hi, scanner_x, scanner_y, far, nearest_r
     if hi - lo < 6:
         return -1
     for i in range(lo, hi):
-        far[i] = math.hypot(points[i, 0] - scanner_x, points[i, 1] - scanner_y)
+        fx = points[i, 0] - scanner_x
+        fy = points[i, 1] - scanner_y
+        far[i] = math.sqrt(fx * fx + fy * fy)
     nearest_right[hi - 1] = math.inf
     for i in range(hi - 2, lo - 1, -1):
         nearest_right[i] = min(nearest_right[i + 1], far[i + 1])
@@ -402,10 +411,15 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
         if not math.isfinite(ranges[i]):
             first = i
             break
-    n = scan_points(ranges, angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, pitch,
-                    axle_height, height, s[DS_FLOOR_MARGIN], first, points, beams, times)
+    sin_th = math.sin(pitch)
+    cos_th = math.cos(pitch)
+    geometry = np.empty((n_beams, N_BEAM))
+    scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, sin_th, cos_th,
+                  height * sin_th, geometry)
+    n = scan_points(ranges, geometry, axle_height + height * cos_th, s[DS_FLOOR_MARGIN], first, points, beams,
+                    times)
     points[n:, :] = math.nan
-    scanner_x, scanner_y, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, height * math.sin(pitch))
+    scanner_x, scanner_y, _heading = scanner_at(x, y, yaw, speed, yaw_rate, 0.0, height * sin_th)
     starts = np.empty(n_beams + 1, dtype=np.int64)
     count = segment_points(points, beams, n, scanner_x, scanner_y, s[DS_GAP], s[DS_GAP_PER_METRE], starts)
     parts = np.empty(n_beams + 1, dtype=np.int64)

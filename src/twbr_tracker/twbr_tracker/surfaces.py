@@ -122,13 +122,15 @@ def remember_scan(u, surfaces, t, points, ranges, angle_min, angle_increment, ti
 
 
 @kernel
-def _segment_distance(px, py, ax, ay, bx, by):
-    """The distance [m] from (px, py) to the segment from (ax, ay) to (bx, by)."""
+def _segment_distance2(px, py, ax, ay, bx, by):
+    """The squared distance [m²] from (px, py) to the segment from (ax, ay) to (bx, by)."""
     ex = bx - ax
     ey = by - ay
     length2 = ex * ex + ey * ey
     f = 0.0 if length2 <= 0.0 else min(1.0, max(0.0, ((px - ax) * ex + (py - ay) * ey) / length2))
-    return math.hypot(px - ax - f * ex, py - ay - f * ey)
+    dx = px - ax - f * ex
+    dy = py - ay - f * ey
+    return dx * dx + dy * dy
 
 
 @kernel
@@ -140,18 +142,25 @@ def point_state(u, ref, px, py):
     oy = ref[0, REF_Y]
     k = _bin(ox, oy, px, py)
     tolerance = u[SU_TOLERANCE]
+    tolerance2 = tolerance * tolerance  # squared distances throughout: this runs for every point of a disc
+    link2 = u[SU_LINK] * u[SU_LINK]
     last = -1  # the previous bin with a point, in bearing order
     for q in range(k - SEARCH, k + SEARCH + 1):
         row = 1 + q % REF_BINS
         if not math.isfinite(ref[row, REF_RANGE]):
             continue
-        if math.hypot(px - ref[row, 0], py - ref[row, 1]) <= tolerance:
+        dx = px - ref[row, 0]
+        dy = py - ref[row, 1]
+        if dx * dx + dy * dy <= tolerance2:
             return 1
-        if (last >= 0 and math.hypot(ref[row, 0] - ref[last, 0], ref[row, 1] - ref[last, 1]) <= u[SU_LINK]
-                and _segment_distance(px, py, ref[last, 0], ref[last, 1], ref[row, 0], ref[row, 1]) <= tolerance):
-            return 1
+        if last >= 0:
+            lx = ref[row, 0] - ref[last, 0]
+            ly = ref[row, 1] - ref[last, 1]
+            if (lx * lx + ly * ly <= link2
+                    and _segment_distance2(px, py, ref[last, 0], ref[last, 1], ref[row, 0], ref[row, 1]) <= tolerance2):
+                return 1
         last = row
-    d = math.hypot(px - ox, py - oy)
+    d = math.sqrt((px - ox) ** 2 + (py - oy) ** 2)
     for step in range(SEARCH + 1):  # the nearest bin that knows something, this side first
         for q in (k - step, k + step):
             r = ref[1 + q % REF_BINS, REF_RANGE]
@@ -172,10 +181,14 @@ def mark_still(u, surfaces, points, discs, m):
             continue
         on = 0
         judged = 0
-        for k in range(int(discs[i, DC_LO]), int(discs[i, DC_HI])):
+        hi = int(discs[i, DC_HI])
+        for k in range(int(discs[i, DC_LO]), hi):
             state = point_state(u, ref, points[k, 0], points[k, 1])
             if state != 0:
                 judged += 1
                 on += state > 0
+            left = hi - 1 - k  # stop once the points left could not make it still: a walker's first votes
+            if (on + left) * (1.0 - u[SU_STILL_FRACTION]) < u[SU_STILL_FRACTION] * (judged - on) or on + left < 2:
+                break
         if on >= 2 and on >= u[SU_STILL_FRACTION] * judged:
             discs[i, DC_STILL] = 1.0
