@@ -139,7 +139,7 @@ def cast_scan_every_beam(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, posi
     z = axle_height + s[LD_HEIGHT] * cos_th
     geometry = np.empty((beams, N_BEAM))
     scan_geometry(s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], s[LD_TIME_INCREMENT], x, y, yaw, speed, yaw_rate, sin_th,
-                  cos_th, s[LD_HEIGHT] * sin_th, geometry)
+                  cos_th, s[LD_HEIGHT] * sin_th, np.ones(beams, dtype=np.bool_), geometry)
     for i in range(beams):
         best = math.inf
         if geometry[i, BEAM_DOWN] > 0.0:
@@ -192,10 +192,12 @@ def test_the_scan_s_geometry_walked_beam_by_beam_is_the_unicycle_s_at_every_beam
     s = settings(**{"lidar.beams": 1000, "lidar.rate": 2.0})
     x, y, yaw, speed, pitch = 3.0, -7.0, 41.3, -1.7, 0.3
     lean = s[LD_HEIGHT] * math.sin(pitch)
-    geometry = np.empty((1000, N_BEAM))
+    geometry = np.full((1000, N_BEAM), math.nan)
+    needed = np.arange(1000) % 7 != 3  # rows only where needed; the walk goes on through the others
     scan_geometry(s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], s[LD_TIME_INCREMENT], x, y, yaw, speed, yaw_rate,
-                  math.sin(pitch), math.cos(pitch), lean, geometry)
-    for i in range(1000):
+                  math.sin(pitch), math.cos(pitch), lean, needed, geometry)
+    assert np.all(np.isnan(geometry[~needed]))
+    for i in np.flatnonzero(needed):
         dt = i * s[LD_TIME_INCREMENT]
         sx, sy, heading = scanner_at(x, y, yaw, speed, yaw_rate, dt, lean)
         bearing = s[LD_ANGLE_MIN] + i * s[LD_ANGLE_INCREMENT]

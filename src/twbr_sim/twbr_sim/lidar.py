@@ -125,11 +125,12 @@ def disc_hit(ox, oy, dx, dy, cx, cy, radius):
 
 @kernel
 def scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, sin_th, cos_th, lean,
-                  geometry):
-    """Every beam's geometry of a scan begun at (x, y, yaw) [m, rad] moving at (speed, yaw_rate), pitched by
-    (sin_th, cos_th), the scanner `lean` [m] ahead of the axle (height x sin pitch): into geometry[i] (BEAM_*,
-    one row per beam) the scanner at beam i's instant [m], its horizontal unit direction, its horizontal share
-    (1 level, less tipped), the share pointing down, and the instant [s after the first].
+                  needed, geometry):
+    """The geometry of the beams i of a scan where needed[i], the scan begun at (x, y, yaw) [m, rad] moving at
+    (speed, yaw_rate), pitched by (sin_th, cos_th), the scanner `lean` [m] ahead of the axle (height x sin
+    pitch): into geometry[i] (BEAM_*, one row per beam; the other rows left as they are) the scanner at beam
+    i's instant [m], its horizontal unit direction, its horizontal share (1 level, less tipped), the share
+    pointing down, and the instant [s after the first].
 
     scanner_at's unicycle, walked beam by beam: the heading and the bearing turn by a fixed rotation per beam
     and the axle moves by the fixed chord of one beam's arc, so a scan costs no trigonometry per beam (the
@@ -151,17 +152,18 @@ def scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, 
     px = x
     py = y
     for i in range(geometry.shape[0]):
-        # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
-        fwd = ca * cos_th
-        horizontal = math.sqrt(fwd * fwd + sa * sa)
-        geometry[i, BEAM_SX] = px + lean * hc
-        geometry[i, BEAM_SY] = py + lean * hs
-        geometry[i, BEAM_HORIZONTAL] = horizontal
-        geometry[i, BEAM_DOWN] = ca * sin_th
-        geometry[i, BEAM_DT] = i * time_increment
-        unit = 1.0 / horizontal if horizontal > 0.0 else 0.0  # straight down or up: no horizontal direction
-        geometry[i, BEAM_DX] = (fwd * hc - sa * hs) * unit
-        geometry[i, BEAM_DY] = (fwd * hs + sa * hc) * unit
+        if needed[i]:
+            # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
+            fwd = ca * cos_th
+            horizontal = math.sqrt(fwd * fwd + sa * sa)
+            geometry[i, BEAM_SX] = px + lean * hc
+            geometry[i, BEAM_SY] = py + lean * hs
+            geometry[i, BEAM_HORIZONTAL] = horizontal
+            geometry[i, BEAM_DOWN] = ca * sin_th
+            geometry[i, BEAM_DT] = i * time_increment
+            unit = 1.0 / horizontal if horizontal > 0.0 else 0.0  # straight down or up: no horizontal direction
+            geometry[i, BEAM_DX] = (fwd * hc - sa * hs) * unit
+            geometry[i, BEAM_DY] = (fwd * hs + sa * hc) * unit
         px += chord * mc
         py += chord * ms
         hc, hs = hc * turn_c - hs * turn_s, hs * turn_c + hc * turn_s
@@ -207,25 +209,19 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
     cos_th = math.cos(pitch)
     z = axle_height + s[LD_HEIGHT] * cos_th  # the scanner above the floor
     range_max = s[LD_RANGE_MAX]
-    geometry = np.empty((beams, N_BEAM))
-    scan_geometry(s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], s[LD_TIME_INCREMENT], x, y, yaw, speed, yaw_rate, sin_th,
-                  cos_th, s[LD_HEIGHT] * sin_th, geometry)
-    windows = np.empty((4, 2), dtype=np.int64)
-    for i in range(beams):
-        ranges[i] = math.inf
+    n_discs = radii.shape[0]
+    # first the beams each disc (rows 0..n_discs-1) and the floor (row n_discs) can meet, then those beams'
+    # geometry only, then the casts
+    windows = np.empty((n_discs + 1, 4, 2), dtype=np.int64)
+    counts = np.zeros(n_discs + 1, dtype=np.int64)
     step = s[LD_ANGLE_INCREMENT] + yaw_rate * s[LD_TIME_INCREMENT]  # beam to beam, turning with the body
     # the floor: down = cos(bearing) sin_th >= z / range_max (every beam when the scanner is not above it)
     if sin_th != 0.0:
         q = z / (range_max * abs(sin_th)) if z > 0.0 else -1.0
         if q <= 1.0:
             half = math.acos(max(q, -1.0)) + BEAM_MARGIN
-            n = beam_window(0.0 if sin_th > 0.0 else math.pi, half, s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], beams,
-                            windows)
-            for k in range(n):
-                for i in range(windows[k, 0], windows[k, 1] + 1):
-                    down = geometry[i, BEAM_DOWN]
-                    if down > 0.0:
-                        ranges[i] = min(ranges[i], z / down)  # where the tipped plane meets the floor
+            counts[n_discs] = beam_window(0.0 if sin_th > 0.0 else math.pi, half, s[LD_ANGLE_MIN],
+                                          s[LD_ANGLE_INCREMENT], beams, windows[n_discs])
     turn_time = (beams - 1) * s[LD_TIME_INCREMENT]
     # how far the scanner strays from (x, y) in one turn: the drive, the lean, and the rounding of the walk
     # along the beams (scan_geometry adds one chord per beam)
@@ -233,7 +229,7 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
     drift += 1e-15 * beams * (1.0 + abs(x) + abs(y) + drift)
     # the pitch bends a beam's horizontal bearing off its nominal one by at most atan((1 - c) / (2 sqrt c))
     bend = (1.0 - cos_th) / math.sqrt(cos_th) + BEAM_MARGIN if cos_th > 0.0 else math.pi
-    for o in range(radii.shape[0]):
+    for o in range(n_discs):
         fx = positions[o, 0] - x
         fy = positions[o, 1] - y
         distance = math.hypot(fx, fy)
@@ -241,9 +237,24 @@ def cast_scan(s, x, y, yaw, pitch, speed, yaw_rate, axle_height, positions, velo
         if distance - reach > range_max:
             continue  # every beam would meet it beyond range_max: +inf whatever else it meets
         half = math.pi if distance <= reach else math.asin(reach / distance) + bend
-        n = beam_window(math.atan2(fy, fx), half, yaw + s[LD_ANGLE_MIN], step, beams, windows)
-        for k in range(n):
-            for i in range(windows[k, 0], windows[k, 1] + 1):
+        counts[o] = beam_window(math.atan2(fy, fx), half, yaw + s[LD_ANGLE_MIN], step, beams, windows[o])
+    needed = np.zeros(beams, dtype=np.bool_)
+    for o in range(n_discs + 1):
+        for k in range(counts[o]):
+            needed[windows[o, k, 0]:windows[o, k, 1] + 1] = True
+    geometry = np.empty((beams, N_BEAM))
+    scan_geometry(s[LD_ANGLE_MIN], s[LD_ANGLE_INCREMENT], s[LD_TIME_INCREMENT], x, y, yaw, speed, yaw_rate, sin_th,
+                  cos_th, s[LD_HEIGHT] * sin_th, needed, geometry)
+    for i in range(beams):
+        ranges[i] = math.inf
+    for k in range(counts[n_discs]):
+        for i in range(windows[n_discs, k, 0], windows[n_discs, k, 1] + 1):
+            down = geometry[i, BEAM_DOWN]
+            if down > 0.0:
+                ranges[i] = min(ranges[i], z / down)  # where the tipped plane meets the floor
+    for o in range(n_discs):
+        for k in range(counts[o]):
+            for i in range(windows[o, k, 0], windows[o, k, 1] + 1):
                 horizontal = geometry[i, BEAM_HORIZONTAL]
                 if horizontal > 0.0:
                     dt = geometry[i, BEAM_DT]

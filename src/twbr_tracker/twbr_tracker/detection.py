@@ -205,7 +205,7 @@ def _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):
         return False
     square_sum = 0.0
     for i in range(lo, hi):
-        square_sum += (math.hypot(points[i, 0] - fx, points[i, 1] - fy) - fr) ** 2
+        square_sum += (math.sqrt((points[i, 0] - fx) ** 2 + (points[i, 1] - fy) ** 2) - fr) ** 2
     if square_sum > s[DS_ARC_TOLERANCE] ** 2 * (hi - lo):
         return False
     nx, ny = _towards_scanner(points, lo, hi, scanner_x, scanner_y)
@@ -388,9 +388,10 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
                     ny = -ny
                 cx += s[DS_CHAIN_DEPTH] * 0.5 * length * nx
                 cy += s[DS_CHAIN_DEPTH] * 0.5 * length * ny
-            reach = 0.0
+            reach2 = 0.0
             for i in range(a, b):
-                reach = max(reach, math.hypot(points[i, 0] - cx, points[i, 1] - cy))
+                reach2 = max(reach2, (points[i, 0] - cx) ** 2 + (points[i, 1] - cy) ** 2)
+            reach = math.sqrt(reach2)
             _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped, a, b)
             n += 1
     return n
@@ -413,9 +414,12 @@ def detect(s, ranges, angle_min, angle_increment, time_increment, x, y, yaw, spe
             break
     sin_th = math.sin(pitch)
     cos_th = math.cos(pitch)
+    needed = np.empty(n_beams, dtype=np.bool_)  # the returns' beams only
+    for i in range(n_beams):
+        needed[i] = math.isfinite(ranges[i])
     geometry = np.empty((n_beams, N_BEAM))
     scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, yaw_rate, sin_th, cos_th,
-                  height * sin_th, geometry)
+                  height * sin_th, needed, geometry)
     n = scan_points(ranges, geometry, axle_height + height * cos_th, s[DS_FLOOR_MARGIN], first, points, beams,
                     times)
     points[n:, :] = math.nan
