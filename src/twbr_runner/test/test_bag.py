@@ -144,3 +144,33 @@ def test_a_channel_without_a_ros2_decoder_is_refused_by_name(tmp_path):
         w.finish()
     with pytest.raises(BagError, match="no decoder for /raw's message encoding 'json'"):
         read_messages(bag)
+
+
+def test_a_cut_anywhere_in_a_record_after_a_chunk_stops_the_salvage_with_a_reason(tmp_path):
+    # Before: a recorder killed in the middle of a message index (the records after each chunk) left a file
+    # the mcap reader failed on with struct.error, which recover_bag did not expect: it crashed.
+    from twbr_runner.recover_bag import salvage
+
+    writer = BagWriter(tmp_path / "bag", get_typestore(Stores.ROS2_JAZZY))
+    writer.add_topic("/clock", "rosgraph_msgs/msg/Clock")
+    store = get_typestore(Stores.ROS2_JAZZY)
+    clock, time = store.types["rosgraph_msgs/msg/Clock"], store.types["builtin_interfaces/msg/Time"]
+    for k in range(20_000):  # a few chunks, each followed by its message index
+        writer.write("/clock", k, store.serialize_cdr(clock(clock=time(sec=k, nanosec=0)), "rosgraph_msgs/msg/Clock"))
+    writer.close()
+    (mcap,) = (tmp_path / "bag").glob("*.mcap")
+    whole = mcap.read_bytes()
+    indexes, at = [], 8  # the records: opcode (1 byte), length (8), body; after the 8-byte magic
+    while at + 9 <= len(whole) and len(indexes) < 2:
+        opcode, length = whole[at], int.from_bytes(whole[at + 1:at + 9], "little")
+        if opcode == 0x07:  # MessageIndex
+            indexes.append((at, length))
+        at += 9 + length
+    assert indexes, "the bag has no message index to cut"
+    for start, length in indexes:
+        for cut in range(start + 1, start + min(9 + length, 40)):
+            mcap.write_bytes(whole[:cut])
+            taken = []
+            reason = salvage(mcap, taken.append)
+            assert reason.startswith("the file ends mid-record"), (cut, reason)
+            assert any(type(r).__name__ == "Message" for r in taken), cut  # the chunk before it, whole

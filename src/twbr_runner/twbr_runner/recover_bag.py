@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import shutil
+import struct
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -43,7 +44,7 @@ def salvage(path: Path, take: Callable[[McapRecord], None]) -> str:
                     return f"a damaged chunk ({e})"
                 for item in inner:
                     take(item)
-        except (McapError, ValueError, EOFError, OSError) as e:
+        except (McapError, ValueError, EOFError, OSError, struct.error) as e:  # struct: a record's fields cut
             return f"the file ends mid-record ({type(e).__name__})"
     return ""
 
