@@ -4,7 +4,7 @@ docs/planner.md show (success, outcome counts, time to reach, clearance, pitch),
     tools/run.sh python benchmarks/study_suite.py                    # -> results/suite.json (docs/planner.md)
     tools/run.sh python benchmarks/study_suite.py --people           # -> results/people.json (README.md)
     tools/run.sh python benchmarks/study_suite.py --ablation         # -> results/ablation.json (docs/planner.md)
-    tools/run.sh python benchmarks/study_suite.py --lidar            # -> results/perception.json (issue 36)
+    tools/run.sh python benchmarks/study_suite.py --lidar -n 1000    # -> results/perception.json (issue 36)
 
 The default: the paper's three scenarios and every suite layout, the paper's and the robust method, 300
 seeds (~10 minutes on 2 cores). --people: issue 35's people layouts, the robust method and its peers (dwa,
