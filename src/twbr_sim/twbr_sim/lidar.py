@@ -136,6 +136,10 @@ def scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, 
     and the axle moves by the fixed chord of one beam's arc, so a scan costs no trigonometry per beam (the
     sines and cosines were most of the cast's and the tracker's time); it agrees with scanner_at to 1e-12 m
     and rad over thousands of beams (test_lidar)."""
+    last = -1  # the walk ends at the last beam needed (none: a scan with nothing to cast or place)
+    for i in range(geometry.shape[0]):
+        if needed[i]:
+            last = i
     turn = yaw_rate * time_increment  # the heading's step from beam to beam
     # the axle's step: the chord of one beam's arc, along the heading half a step on (speed x dt when straight)
     chord = 2.0 * speed / yaw_rate * math.sin(0.5 * turn) if turn != 0.0 else speed * time_increment
@@ -151,7 +155,7 @@ def scan_geometry(angle_min, angle_increment, time_increment, x, y, yaw, speed, 
     sa = math.sin(angle_min)
     px = x
     py = y
-    for i in range(geometry.shape[0]):
+    for i in range(last + 1):
         if needed[i]:
             # the beam in the yaw-aligned frame: forward ca * cos_th, left sa, down ca * sin_th
             fwd = ca * cos_th
