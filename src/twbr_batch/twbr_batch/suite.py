@@ -74,6 +74,7 @@ ABLATIONS: dict[str, dict[str, Any]] = {
     "no speed policy": {"speed_policy": False},
     "no safety filter": {"safety_filter": False},
     "no yielding": {"yield_horizon": 0.0},
+    "no dynamic window": {"window_horizon": 0.0},
 }
 
 

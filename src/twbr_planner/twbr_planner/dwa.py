@@ -63,11 +63,11 @@ ROLLOUT_STEP = 0.2  # [s]
 
 
 @kernel
-def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii):
+def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii, horizon, margin):
     """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
-    acceleration limits for dwa_horizon; the smallest footprint clearance to the obstacles moving at their
-    velocity (inf without obstacles) and when it first falls below safety_margin (inf never)."""
-    steps = max(1, int(a[A_DWA_HORIZON] / ROLLOUT_STEP + 0.5))
+    acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles moving at their
+    velocity (inf without obstacles) and when it first falls below `margin` [m] (inf never)."""
+    steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
     clearance = math.inf
@@ -86,7 +86,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii):
             oy = positions[j, 1] + velocities[j, 1] * t
             gap = math.hypot(x - ox, y - oy) - radii[j] - robot_radius
             clearance = min(clearance, gap)
-            if gap < a[A_SAFETY_MARGIN] and contact == math.inf:
+            if gap < margin and contact == math.inf:
                 contact = t
     return clearance, contact, x, y, yaw
 
@@ -116,7 +116,7 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
         for k in range(OMEGA_SAMPLES):
             w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (OMEGA_SAMPLES - 1) - 1.0)
             clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities,
-                                                       radii)
+                                                       radii, a[A_DWA_HORIZON], a[A_SAFETY_MARGIN])
             heading = 1.0 - abs(wrap_angle(math.atan2(target_y - ey, target_x - ex) - eyaw)) / math.pi
             score = (a[A_DWA_HEADING_WEIGHT] * heading
                      + a[A_DWA_CLEARANCE_WEIGHT] * min(max(clearance, 0.0), cap) / cap

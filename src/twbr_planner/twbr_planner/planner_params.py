@@ -120,6 +120,21 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " distance it walks (it may turn, slow down or stop)", "", 0.0, 10.0),
     ParamSpec("yield_margin", 0.1, "robust: clearance the look-ahead keeps from the predicted discs", "m", 0.0,
               10.0),
+    ParamSpec("window_horizon", 3.0, "robust: while a moving obstacle can come near within this, the field's"
+              " direction is driven by a dynamic window of rollouts this long (window.py); 0 turns it off", "s",
+              0.0, 60.0),
+    ParamSpec("window_min_speed", 0.3, "robust: only an obstacle this fast starts the window (people walk at"
+              " 0.3 m/s or more; a LiDAR track of a disc seen in part may seem to move at 0.1-0.3 m/s)", "m/s",
+              0.0, 10.0),
+    ParamSpec("window_margin", 0.15, "robust: a window rollout that comes this close to an obstacle is not"
+              " admissible", "m", 0.0, 10.0),
+    ParamSpec("window_heading_weight", 1.0, "robust: the window's weight of the heading to the field's direction"
+              " at a rollout's end", "", 0.0, 100.0),
+    ParamSpec("window_clearance_weight", 0.3, "robust: the window's weight of a rollout's clearance (capped at"
+              " window_clearance_cap)", "", 0.0, 100.0),
+    ParamSpec("window_speed_weight", 0.6, "robust: the window's weight of the speed", "", 0.0, 100.0),
+    ParamSpec("window_clearance_cap", 1.0, "robust: a rollout's clearance beyond this scores no more in the"
+              " window", "m", 0.0, 100.0, low_open=True),
     # The baseline peers (method: dwa, method: vo); they share v_max, the acceleration limits,
     # brake_deceleration, robot_radius, safety_margin, rho_o (the mode's range), arrival and the stuck report.
     ParamSpec("dwa_horizon", 3.0, "dwa: each (v, omega) is rolled out this long, obstacles at constant velocity",
@@ -202,7 +217,8 @@ def resolve(overrides: Mapping[str, Any] | None = None, scenario: Any = None) ->
 # The robust method's additions and the value of the parameter that switches each off (docs/planner.md).
 ROBUST_ADDITIONS = (("goal-reachable field", "goal_fade", 0.0), ("escape", "follow_range", 0.0),
                     ("evasion", "evade_horizon", 0.0), ("speed policy", "speed_policy", False),
-                    ("yielding", "yield_horizon", 0.0), ("safety filter", "safety_filter", False))
+                    ("yielding", "yield_horizon", 0.0), ("safety filter", "safety_filter", False),
+                    ("dynamic window", "window_horizon", 0.0))
 
 
 def describe(cfg: Mapping[str, Any]) -> str:

@@ -9,7 +9,9 @@ for the ablation study, in the manner of Nav2 MPPI's critics:
 3. evasion.py: out of a moving obstacle's swept path, early (evade_horizon);
 4. speed_policy.py: the yaw rate, and a speed that can stop before what is ahead (speed_policy);
 5. yielding.py: a look-ahead over the predicted motion that waits, steps aside or backs out (yield_horizon);
-6. safety_filter.py: a control barrier function per obstacle (safety_filter).
+6. safety_filter.py: a control barrier function per obstacle (safety_filter);
+7. window.py: among moving obstacles, the field's direction driven by a dynamic window (window_horizon),
+   in place of the safety filter.
 
 This module only composes them; everything is compiled and shared with the batch engine, like the paper's
 `apf_step`.
@@ -27,6 +29,7 @@ from twbr_planner.apf import (
     A_MAX_YAW_JERK,
     A_RHO_O,
     A_SAFETY_FILTER,
+    A_V_MAX,
     AVOIDING,
     ESCAPING,
     EVADING,
@@ -47,6 +50,7 @@ from twbr_planner.evasion import evade
 from twbr_planner.field import field
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
+from twbr_planner.window import window_command
 from twbr_planner.yielding import yield_command
 
 
@@ -86,7 +90,14 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
         if mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
             mode = STUCK
             m[R_STALLED] = 1.0  # the next step follows the boundary, if there is one
-    # 5. yielding to what the look-ahead sees coming, 6. the safety filter, then the acceleration limits
+    # 7. among moving obstacles, the field's direction driven by a dynamic window; 5. yielding to what the
+    # look-ahead sees coming, 6. the safety filter, then the acceleration limits
+    windowed = False
+    # an obstacle faster than the robot being evaded is left to the evasion: no rollout outruns it
+    outrun = threat >= 0 and math.hypot(velocities[threat, 0], velocities[threat, 1]) > a[A_V_MAX]
+    if not arrived and not outrun:
+        v, omega, windowed = window_command(a, m, x, y, yaw, v, omega, alpha, distance, moving_target, positions,
+                                                    velocities, radii)
     if not arrived:
         v, omega, yielding = yield_command(a, m, x, y, yaw, v, omega, target_x, target_y, positions, velocities,
                                            radii)
@@ -95,7 +106,10 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path the robot turns at once
     jerk = a[A_MAX_YAW_JERK] if threat < 0 else 0.0
     binding = -1
-    if a[A_SAFETY_FILTER] != 0.0 and not arrived:
+    # the window's rollouts judged its command against every obstacle's motion: the barriers would brake the
+    # robot where the window chose to drive on (in a walker's way; kept for the static discs alone, they
+    # halved clutter_movers' success: benchmarks/HISTORY.md)
+    if a[A_SAFETY_FILTER] != 0.0 and not arrived and not windowed:
         v, omega, binding = safety_filter(a, stamp, m, x, y, yaw, v, omega, positions, velocities, radii, threat,
                                           jerk)
     v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], jerk)

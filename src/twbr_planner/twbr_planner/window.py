@@ -1,0 +1,92 @@
+"""Robust addition 7, the dynamic window among moving obstacles: where people are near, the field's direction is
+driven the way the dynamic window approach drives to its target (Fox, Burgard & Thrun 1997).
+
+The field steers along the present forces and the speed policy brakes for what is ahead; among walkers that
+makes a slow robot that lingers in their lanes (clutter with movers: half the median speed of the dynamic
+window, and twice its collisions). Here, while a moving obstacle can come within reach over `window_horizon`,
+a grid of (v, omega) commands is rolled out at the acceleration limits against every obstacle at its constant
+velocity (dwa.rollout) and scored as Fox et al. score theirs, with the heading measured to the field's
+direction instead of the target's (the field keeps its escape from local minima and its evasion):
+window_heading_weight * heading + window_clearance_weight * clearance (capped at window_clearance_cap) +
+window_speed_weight * speed. A rollout within window_margin of an obstacle is not admissible (wider than the
+safety filter's margin, whose barrier does not run beside it); when none is (tight quarters, where a LiDAR
+track of a static disc seen in part may seem to move), the field's command and the safety filter stand. The
+yield step still judges the command it picks; the safety filter does not (robust.py): its barrier on a
+walker's distance brakes the robot in the walker's way."""
+
+from __future__ import annotations
+
+import math
+
+from twbr_common.geometry import wrap_angle
+from twbr_common.jit import kernel
+from twbr_planner.apf import (
+    A_APPROACH_GAIN,
+    A_MAX_YAW_RATE,
+    A_ROBOT_RADIUS,
+    A_V_MAX,
+    A_WINDOW_CLEARANCE_CAP,
+    A_WINDOW_CLEARANCE_WEIGHT,
+    A_WINDOW_HEADING_WEIGHT,
+    A_WINDOW_HORIZON,
+    A_WINDOW_MARGIN,
+    A_WINDOW_MIN_SPEED,
+    A_WINDOW_SPEED_WEIGHT,
+    R_LAST_OMEGA,
+    R_LAST_V,
+)
+from twbr_planner.dwa import rollout
+
+SPEEDS = 7  # forward speeds from 0 to v_max (as dwa.py)
+YAW_RATES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (as dwa.py)
+
+
+@kernel
+def movers_in_reach(a, x, y, velocities, positions, radii, horizon):
+    """Whether an obstacle moving at window_min_speed or more and the robot can meet within `horizon` [s]
+    (else the field drives)."""
+    for j in range(radii.shape[0]):
+        speed = math.hypot(velocities[j, 0], velocities[j, 1])
+        if speed < a[A_WINDOW_MIN_SPEED] or speed < 1e-3:
+            continue
+        gap = math.hypot(positions[j, 0] - x, positions[j, 1] - y) - radii[j] - a[A_ROBOT_RADIUS]
+        if gap < (a[A_V_MAX] + speed) * horizon:
+            return True
+    return False
+
+
+@kernel
+def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, moving_target, positions,
+                   velocities, radii):
+    """(v, omega, windowed): the best-scoring admissible rollout towards the field's direction `alpha` [rad]
+    while a moving obstacle is in reach; else (or with none admissible) the field's command."""
+    horizon = a[A_WINDOW_HORIZON]
+    if horizon <= 0.0 or not movers_in_reach(a, x, y, velocities, positions, radii, horizon):
+        return v_nominal, omega_nominal, False
+    v0 = m[R_LAST_V]
+    w0 = m[R_LAST_OMEGA]
+    cap = a[A_WINDOW_CLEARANCE_CAP]
+    v_top = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    best_score = -math.inf
+    best_v = v_nominal
+    best_w = omega_nominal
+    for i in range(SPEEDS):
+        v_goal = v_top * i / (SPEEDS - 1)
+        for k in range(YAW_RATES):
+            w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (YAW_RATES - 1) - 1.0)
+            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions,
+                                                     velocities, radii, horizon, a[A_WINDOW_MARGIN])
+            if contact < math.inf:
+                continue  # not admissible
+            heading = 1.0 - abs(wrap_angle(alpha - eyaw)) / math.pi
+            score = (a[A_WINDOW_HEADING_WEIGHT] * heading
+                     + a[A_WINDOW_CLEARANCE_WEIGHT] * min(max(clearance, 0.0), cap) / cap
+                     + a[A_WINDOW_SPEED_WEIGHT] * v_goal / a[A_V_MAX])
+            if score > best_score:
+                best_score = score
+                best_v = v_goal
+                best_w = w_goal
+    if best_score == -math.inf:
+        # no rollout stays clear: tight quarters, where the field and the safety filter's barriers drive
+        return v_nominal, omega_nominal, False
+    return best_v, best_w, True
