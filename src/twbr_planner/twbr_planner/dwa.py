@@ -92,6 +92,17 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii, 
 
 
 @kernel
+def objective(heading_weight, clearance_weight, speed_weight, clearance_cap, heading_error, clearance, speed,
+              v_max):
+    """Fox et al.'s G(v, omega), each term in [0, 1]: the heading error [rad] at the rollout's end, its
+    clearance [m] capped at clearance_cap, and its speed [m/s] over v_max."""
+    heading = 1.0 - abs(wrap_angle(heading_error)) / math.pi
+    return (heading_weight * heading
+            + clearance_weight * min(max(clearance, 0.0), clearance_cap) / clearance_cap
+            + speed_weight * speed / v_max)
+
+
+@kernel
 def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
              velocities, radii, distances):
     """One planning step of the dynamic window approach into `out` (Q_*)."""
@@ -117,10 +128,8 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
             w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (OMEGA_SAMPLES - 1) - 1.0)
             clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities,
                                                        radii, a[A_DWA_HORIZON], a[A_SAFETY_MARGIN])
-            heading = 1.0 - abs(wrap_angle(math.atan2(target_y - ey, target_x - ex) - eyaw)) / math.pi
-            score = (a[A_DWA_HEADING_WEIGHT] * heading
-                     + a[A_DWA_CLEARANCE_WEIGHT] * min(max(clearance, 0.0), cap) / cap
-                     + a[A_DWA_SPEED_WEIGHT] * v_goal / a[A_V_MAX])
+            score = objective(a[A_DWA_HEADING_WEIGHT], a[A_DWA_CLEARANCE_WEIGHT], a[A_DWA_SPEED_WEIGHT], cap,
+                              math.atan2(target_y - ey, target_x - ex) - eyaw, clearance, v_goal, a[A_V_MAX])
             # admissible first (no contact within the horizon), then the latest contact, then the score
             if contact > best_contact or (contact == best_contact and score > best_score):
                 best_contact = contact

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import math
 
-from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_APPROACH_GAIN,
@@ -35,7 +34,7 @@ from twbr_planner.apf import (
     R_LAST_OMEGA,
     R_LAST_V,
 )
-from twbr_planner.dwa import rollout
+from twbr_planner.dwa import objective, rollout
 
 SPEEDS = 7  # forward speeds from 0 to v_max (as dwa.py)
 YAW_RATES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (as dwa.py)
@@ -78,10 +77,8 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
                                                      velocities, radii, horizon, a[A_WINDOW_MARGIN])
             if contact < math.inf:
                 continue  # not admissible
-            heading = 1.0 - abs(wrap_angle(alpha - eyaw)) / math.pi
-            score = (a[A_WINDOW_HEADING_WEIGHT] * heading
-                     + a[A_WINDOW_CLEARANCE_WEIGHT] * min(max(clearance, 0.0), cap) / cap
-                     + a[A_WINDOW_SPEED_WEIGHT] * v_goal / a[A_V_MAX])
+            score = objective(a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT],
+                              cap, alpha - eyaw, clearance, v_goal, a[A_V_MAX])
             if score > best_score:
                 best_score = score
                 best_v = v_goal
