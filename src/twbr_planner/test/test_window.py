@@ -53,7 +53,7 @@ def test_a_walker_crossing_the_way_is_passed_clear_where_the_fields_command_meet
     assert windowed
     chosen = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, v, omega, positions, velocities, radii, cfg["window_horizon"],
                        cfg["window_margin"])
-    assert chosen[1] == math.inf  # never within safety_margin over the horizon
+    assert chosen[1] == math.inf  # never within window_margin over the horizon
     assert chosen[0] > cfg["window_margin"]
 
 

@@ -22,7 +22,6 @@ from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_APPROACH_GAIN,
     A_MAX_YAW_RATE,
-    A_ROBOT_RADIUS,
     A_V_MAX,
     A_WINDOW_CLEARANCE_CAP,
     A_WINDOW_CLEARANCE_WEIGHT,
@@ -34,24 +33,8 @@ from twbr_planner.apf import (
     R_LAST_OMEGA,
     R_LAST_V,
 )
-from twbr_planner.dwa import objective, rollout
-
-SPEEDS = 7  # forward speeds from 0 to v_max (as dwa.py)
-YAW_RATES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (as dwa.py)
-
-
-@kernel
-def movers_in_reach(a, x, y, velocities, positions, radii, horizon):
-    """Whether an obstacle moving at window_min_speed or more and the robot can meet within `horizon` [s]
-    (else the field drives)."""
-    for j in range(radii.shape[0]):
-        speed = math.hypot(velocities[j, 0], velocities[j, 1])
-        if speed < a[A_WINDOW_MIN_SPEED] or speed < 1e-3:
-            continue
-        gap = math.hypot(positions[j, 0] - x, positions[j, 1] - y) - radii[j] - a[A_ROBOT_RADIUS]
-        if gap < (a[A_V_MAX] + speed) * horizon:
-            return True
-    return False
+from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, objective, rollout
+from twbr_planner.yielding import MOVING, in_reach
 
 
 @kernel
@@ -60,7 +43,8 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     """(v, omega, windowed): the best-scoring admissible rollout towards the field's direction `alpha` [rad]
     while a moving obstacle is in reach; else (or with none admissible) the field's command."""
     horizon = a[A_WINDOW_HORIZON]
-    if horizon <= 0.0 or not movers_in_reach(a, x, y, velocities, positions, radii, horizon):
+    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon,
+                                      max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0):
         return v_nominal, omega_nominal, False
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
@@ -69,10 +53,10 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
-    for i in range(SPEEDS):
-        v_goal = v_top * i / (SPEEDS - 1)
-        for k in range(YAW_RATES):
-            w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (YAW_RATES - 1) - 1.0)
+    for i in range(V_SAMPLES):
+        v_goal = v_top * i / (V_SAMPLES - 1)
+        for k in range(OMEGA_SAMPLES):
+            w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (OMEGA_SAMPLES - 1) - 1.0)
             clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions,
                                                      velocities, radii, horizon, a[A_WINDOW_MARGIN])
             if contact < math.inf:

@@ -87,15 +87,17 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, vel
 
 
 @kernel
-def in_reach(a, x, y, positions, velocities, radii, horizon):
-    """Whether a moving obstacle can come near the robot within the horizon (else nothing to yield to)."""
-    reach = a[A_ROBOT_RADIUS] + a[A_YIELD_MARGIN]
+def in_reach(a, x, y, positions, velocities, radii, horizon, min_speed, margin, growth):
+    """Whether an obstacle moving at `min_speed` [m/s] or faster can come within `margin` [m] of the robot's
+    footprint within the horizon, its reach grown by `growth` times its speed (else nothing to yield to, or
+    for the dynamic window to drive among)."""
+    reach = a[A_ROBOT_RADIUS] + margin
     for j in range(radii.shape[0]):
         speed = math.hypot(velocities[j, 0], velocities[j, 1])
-        if speed < MOVING:
+        if speed < min_speed:
             continue
         gap = math.hypot(positions[j, 0] - x, positions[j, 1] - y) - radii[j] - reach
-        if gap < (a[A_V_MAX] + speed * (1.0 + a[A_YIELD_UNCERTAINTY])) * horizon:
+        if gap < (a[A_V_MAX] + speed * (1.0 + growth)) * horizon:
             return True
     return False
 
@@ -105,7 +107,8 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
     """(v, omega, yielding): the field's command if its look-ahead stays clear, else the candidate whose first
     conflict comes latest (nearest the field's command among equals); yielding when it is not the field's."""
     horizon = a[A_YIELD_HORIZON]
-    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon):
+    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon, MOVING,
+                                                a[A_YIELD_MARGIN], a[A_YIELD_UNCERTAINTY]):
         return v_nominal, omega_nominal, False
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
