@@ -245,3 +245,51 @@ def test_a_full_table_makes_room_for_a_new_person_from_its_oldest_lost_track():
     d = discs((2.0, 0.0), (-3.0, -3.0), (4.0, 4.0))  # a fourth: no lost track to give way
     n, next_id = track_step(ks, tracks, cov, n, next_id, 2.1, d, len(d))
     assert n == 2 and sorted(tracks[:n, TR_ID]) == [1.0, 3.0]
+
+
+def drive_past_clutter(seconds: float = 8.0, **tracking) -> list:
+    """A robot driving at 0.5 m/s through the suite's clutter (posts 2 m apart in rows, r 0.3-0.5 m: the
+    nearer ones hide the farther ones in part, and each shadow's edge slides across a post as the robot
+    drives): every obstacle the tracker publishes."""
+    from twbr_tracker.tracker import TRACKER_SPECS, Tracker
+
+    ls = lidar_vector(defaults(LIDAR_SPECS))
+    g = new_generator(5, LIDAR_STREAM)
+    tracker = Tracker({**defaults(TRACKER_SPECS), **{f"tracking.{k}": v for k, v in tracking.items()}})
+    posts = np.array([[2.5 + 2.0 * i, -4.0 + 2.0 * j + (1.0 if i % 2 else 0.0)] for i in range(4) for j in range(5)])
+    radii = np.array([0.3, 0.4, 0.5, 0.35, 0.45] * 4)
+    published = []
+    for k in range(round(seconds * RATE)):
+        t, x, y = k / RATE, 0.05 * k, 0.6 + 0.01 * k
+        ranges = np.empty(360)
+        cast_scan(ls, x, y, 0.0, 0.0, 0.5, 0.0, AXLE, posts, np.zeros_like(posts), radii, ranges)
+        scan_noise(ls, g, ranges)
+        published += tracker.step(t, ranges, -math.pi, math.radians(1.0), 0.1 / 360, x, y, 0.0, 0.5, 0.0, 0.0)
+    return published
+
+
+def test_posts_half_hidden_behind_nearer_ones_are_published_still():
+    """The centre of a post seen past a nearer one's edge slides with the shadow (0.4-0.7 m/s in the suite's
+    clutter, where the planner took such tracks for walkers and drove among the posts as among people):
+    published still: a clipped disc moves its track's position, not its velocity. Measured: 35 of the 1146
+    obstacles published over these 8 s move (slivers of posts at a shadow's edge that detection does not
+    see as clipped); with clipped discs in the velocity, before, 228 of 1161."""
+    published = drive_past_clutter()
+    moving = [o for o in published if math.hypot(o.vx, o.vy) > 0.0]
+    assert len(published) > 1000 and len(moving) < 0.05 * len(published)
+
+
+def test_a_person_who_stops_and_goes_again_is_moving_again_at_once():
+    """A person walks 1 m, stands 3 s, walks on (at 0.5 m/s): one track, still while standing, and moving
+    again within 0.5 s of walking on."""
+
+    def stop_and_go(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        walked = 0.5 * min(t, 2.0) + 0.5 * max(t - 5.0, 0.0)
+        vy = 0.0 if 2.0 <= t < 5.0 else 0.5
+        return np.array([[3.0, -2.0 + walked]]), np.array([[0.0, vy]]), np.array([0.3])
+
+    states = {round(t, 1): (c[0, TR_MOVING], c[0, TR_ID]) for t, c, _p, _v in run(stop_and_go, 8.0) if len(c) == 1}
+    assert len({i for _m, i in states.values()}) == 1  # one track throughout
+    assert states[1.9][0] == 1.0 and states[4.9][0] == 0.0  # walking, then standing
+    restarted = min(t for t, (m, _i) in states.items() if t > 5.0 and m == 1.0)
+    assert restarted - 5.0 <= 0.5
