@@ -77,3 +77,33 @@ def test_a_walker_crossing_ahead_is_passed_clear_and_sooner_than_the_field_alone
     assert windowed[-1].mode is Mode.ARRIVED and field_only[-1].mode is Mode.ARRIVED
     assert clearance > settings()["safety_margin"]
     assert len(windowed) < 0.9 * len(field_only)
+
+
+def test_the_obstacles_out_of_reach_change_no_rollout():
+    """within_reach keeps every obstacle that can change a rollout's admissibility or its capped clearance:
+    on random scenes (discs and walkers up to 12 m off), every rollout of the grid over the window's horizon
+    has the same contact time and the same clearance capped at window_clearance_cap with the kept obstacles
+    as with all of them, and some scenes do leave obstacles out."""
+    from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, within_reach
+
+    cfg = settings()
+    a = vector(cfg)
+    horizon, margin, cap = cfg["window_horizon"], cfg["window_margin"], cfg["window_clearance_cap"]
+    rng = np.random.default_rng(7)
+    left_out = 0
+    for _ in range(30):
+        n = 20
+        positions = rng.uniform(-12.0, 12.0, (n, 2))
+        velocities = rng.uniform(-0.8, 0.8, (n, 2)) * (rng.random((n, 1)) < 0.3)
+        radii = rng.uniform(0.2, 0.6, n)
+        v0 = rng.uniform(-0.2, 0.6)
+        near = within_reach(a, 0.0, 0.0, v0, positions, velocities, radii, horizon, max(cap, margin))
+        left_out += n - len(near[2])
+        for i in range(V_SAMPLES):
+            for k in range(OMEGA_SAMPLES):
+                v_goal, w_goal = candidate(a, cfg["v_max"], i, k)
+                every = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions, velocities, radii, horizon,
+                                margin)
+                kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, *near, horizon, margin)
+                assert kept[1] == every[1] and min(kept[0], cap) == min(every[0], cap)
+    assert left_out > 0

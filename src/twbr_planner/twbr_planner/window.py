@@ -21,7 +21,6 @@ import math
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_APPROACH_GAIN,
-    A_MAX_YAW_RATE,
     A_V_MAX,
     A_WINDOW_CLEARANCE_CAP,
     A_WINDOW_CLEARANCE_WEIGHT,
@@ -33,7 +32,7 @@ from twbr_planner.apf import (
     R_LAST_OMEGA,
     R_LAST_V,
 )
-from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, objective, rollout
+from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, objective, rollout, within_reach
 from twbr_planner.yielding import MOVING, in_reach
 
 
@@ -50,15 +49,16 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    near_p, near_v, near_r = within_reach(a, x, y, v0, positions, velocities, radii, horizon,
+                                          max(cap, a[A_WINDOW_MARGIN]))
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
     for i in range(V_SAMPLES):
-        v_goal = v_top * i / (V_SAMPLES - 1)
         for k in range(OMEGA_SAMPLES):
-            w_goal = a[A_MAX_YAW_RATE] * (2.0 * k / (OMEGA_SAMPLES - 1) - 1.0)
-            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions,
-                                                     velocities, radii, horizon, a[A_WINDOW_MARGIN])
+            v_goal, w_goal = candidate(a, v_top, i, k)
+            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, near_r,
+                                                     horizon, a[A_WINDOW_MARGIN])
             if contact < math.inf:
                 continue  # not admissible
             score = objective(a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT],
