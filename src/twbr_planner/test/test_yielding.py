@@ -56,9 +56,9 @@ def test_it_stands_aside_for_a_person_coming_its_way_and_goes_on_when_the_way_is
 
 def test_it_waits_at_a_passage_a_cart_is_coming_through():
     """suite/narrow_passage: a cart that leaves no room comes through a 1.6 m passage; over the same 60 layouts,
-    the look-ahead turns a third of the collisions into waits (measured: 12 collisions with it, 18 without;
-    7 and 17 while the evasion dropped the yaw jerk limit; seeds 1-20, before any jerk limit, 2 and 7). The
-    dynamic window is off in both: it keeps the robot out of the cart's way too (test_window.py)."""
+    the look-ahead turns most collisions into waits (measured: 7 collisions with it, 17 without; seeds 1-20,
+    before the yaw jerk limit, 2 and 7: 20 seeds were too few to tell 2 from 4). The dynamic window is off
+    in both: it keeps the robot out of the cart's way too (test_window.py)."""
     from twbr_batch.suite import run_rows
     from twbr_sim.scenario_files import find_scenario
 
@@ -69,4 +69,4 @@ def test_it_waits_at_a_passage_a_cart_is_coming_through():
     without = run_rows(path, "no yielding", {"method": "robust", "yield_horizon": 0.0, "window_horizon": 0.0,
                                              "perception": "truth"}, seeds)
     collided = [sum(r.collisions > 0 for r in rows) for rows in (with_look_ahead, without)]
-    assert collided[1] >= 12 and collided[0] <= 0.75 * collided[1]
+    assert collided[1] >= 12 and collided[0] <= 0.5 * collided[1]

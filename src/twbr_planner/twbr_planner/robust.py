@@ -103,10 +103,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
                                            radii)
         if yielding:
             mode = YIELDING
-    # the yaw jerk limit rounds every turn, out of a threat's path too: dropped there, each evasion's turn
-    # was a torque step of 0.05-0.07 N·m (twice issue 35's 0.03) on every layout with movers, for no
-    # success since the dynamic window (benchmarks/HISTORY.md, thirteenth session)
-    jerk = a[A_MAX_YAW_JERK]
+    # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path the robot turns at once
+    jerk = a[A_MAX_YAW_JERK] if threat < 0 else 0.0
     binding = -1
     # the window's rollouts judged its command against every obstacle's motion: the barriers would brake the
     # robot where the window chose to drive on (in a walker's way; kept for the static discs alone, they
