@@ -452,6 +452,13 @@ def arrive(a, m, distance, moving_target, mode, v, omega):
 
 
 @kernel
+def top_speed(a, distance, moving_target):
+    """[m/s] the fastest a sampling method may drive: v_max, and near a static target at most approach_gain *
+    distance [m], as arrive() caps the field's speed."""
+    return a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+
+
+@kernel
 def write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
                  escape_side, threat, binding):
     """One planning step's output vector (Q_*)."""

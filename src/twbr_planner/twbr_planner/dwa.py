@@ -26,7 +26,6 @@ import numpy as np
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_APPROACH_GAIN,
     A_BRAKE_DECELERATION,
     A_DWA_CLEARANCE_CAP,
     A_DWA_CLEARANCE_WEIGHT,
@@ -55,6 +54,7 @@ from twbr_planner.apf import (
     nearest_obstacle,
     no_progress,
     ramp_speed,
+    top_speed,
     write_output,
 )
 
@@ -147,8 +147,7 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     best_v = 0.0
     best_w = 0.0
     best_yaw = yaw
-    # the speeds it may drive: near a static target at most approach_gain times the distance, as arrive() caps
-    v_top = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    v_top = top_speed(a, distance, moving_target)
     near_p, near_v, near_r = within_reach(a, x, y, v0, positions, velocities, radii, a[A_DWA_HORIZON],
                                           max(cap, a[A_SAFETY_MARGIN]))
     for i in range(V_SAMPLES):

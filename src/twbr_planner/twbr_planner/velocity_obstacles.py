@@ -19,7 +19,6 @@ import math
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_APPROACH_GAIN,
     A_BRAKE_DECELERATION,
     A_K_P,
     A_K_S,
@@ -41,6 +40,7 @@ from twbr_planner.apf import (
     limit_rates,
     nearest_obstacle,
     no_progress,
+    top_speed,
     write_output,
 )
 
@@ -86,7 +86,7 @@ def vo_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target
     nearest, nearest_d = nearest_obstacle(distances)
     distance = math.hypot(target_x - x, target_y - y)
     moving_target = math.hypot(target_vx, target_vy) > 1e-3
-    preferred = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    preferred = top_speed(a, distance, moving_target)
     to_target = math.atan2(target_y - y, target_x - x)
     pref_x = preferred * math.cos(to_target)
     pref_y = preferred * math.sin(to_target)

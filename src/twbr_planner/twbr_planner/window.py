@@ -9,10 +9,9 @@ velocity (dwa.rollout) and scored as Fox et al. score theirs, with the heading m
 direction instead of the target's (the field keeps its escape from local minima and its evasion):
 window_heading_weight * heading + window_clearance_weight * clearance (capped at window_clearance_cap) +
 window_speed_weight * speed. A rollout within window_margin of an obstacle is not admissible (wider than the
-safety filter's margin, whose barrier does not run beside it); when none is (tight quarters, where a LiDAR
-track of a static disc seen in part may seem to move), the field's command and the safety filter stand. The
-yield step still judges the command it picks; the safety filter does not (robust.py): its barrier on a
-walker's distance brakes the robot in the walker's way."""
+safety filter's margin, whose barrier does not run beside it); when none is (tight quarters), the field's
+command and the safety filter stand. The yield step still judges the command it picks; the safety filter
+does not (robust.py): its barrier on a walker's distance brakes the robot in the walker's way."""
 
 from __future__ import annotations
 
@@ -20,7 +19,6 @@ import math
 
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_APPROACH_GAIN,
     A_V_MAX,
     A_WINDOW_CLEARANCE_CAP,
     A_WINDOW_CLEARANCE_WEIGHT,
@@ -31,6 +29,7 @@ from twbr_planner.apf import (
     A_WINDOW_SPEED_WEIGHT,
     R_LAST_OMEGA,
     R_LAST_V,
+    top_speed,
 )
 from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, objective, rollout, within_reach
 from twbr_planner.yielding import MOVING, in_reach
@@ -48,7 +47,7 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]
-    v_top = a[A_V_MAX] if moving_target else min(a[A_V_MAX], a[A_APPROACH_GAIN] * distance)
+    v_top = top_speed(a, distance, moving_target)
     near_p, near_v, near_r = within_reach(a, x, y, v0, positions, velocities, radii, horizon,
                                           max(cap, a[A_WINDOW_MARGIN]))
     best_score = -math.inf

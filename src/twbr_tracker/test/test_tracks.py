@@ -247,7 +247,7 @@ def test_a_full_table_makes_room_for_a_new_person_from_its_oldest_lost_track():
     assert n == 2 and sorted(tracks[:n, TR_ID]) == [1.0, 3.0]
 
 
-def drive_past_clutter(seconds: float = 8.0, **tracking) -> list:
+def drive_past_clutter(seconds: float = 8.0) -> list:
     """A robot driving at 0.5 m/s through the suite's clutter (posts 2 m apart in rows, r 0.3-0.5 m: the
     nearer ones hide the farther ones in part, and each shadow's edge slides across a post as the robot
     drives): every obstacle the tracker publishes."""
@@ -255,7 +255,7 @@ def drive_past_clutter(seconds: float = 8.0, **tracking) -> list:
 
     ls = lidar_vector(defaults(LIDAR_SPECS))
     g = new_generator(5, LIDAR_STREAM)
-    tracker = Tracker({**defaults(TRACKER_SPECS), **{f"tracking.{k}": v for k, v in tracking.items()}})
+    tracker = Tracker(defaults(TRACKER_SPECS))
     posts = np.array([[2.5 + 2.0 * i, -4.0 + 2.0 * j + (1.0 if i % 2 else 0.0)] for i in range(4) for j in range(5)])
     radii = np.array([0.3, 0.4, 0.5, 0.35, 0.45] * 4)
     published = []
