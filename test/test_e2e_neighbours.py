@@ -99,7 +99,8 @@ def test_two_runners_started_together_never_both_measure_a_mixed_graph(ros_env, 
     assert len(ran) <= 1, results  # never two "successful" runs of one mixed graph
     for code, output, metrics in results:
         if code == 0:
-            assert metrics["reached"] and metrics["foreign_publishers"] == [] and metrics["lockstep_timeouts"] == 0
+            assert metrics["reached"] and metrics["foreign_publishers"] == [] and metrics["lockstep_timeouts"] == 0, \
+                (metrics, output)
         else:
             assert code == 1, output
             refused = "refusing to start" in output and "runner run_scenario_" in output

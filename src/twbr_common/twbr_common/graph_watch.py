@@ -13,6 +13,10 @@ from collections.abc import Iterable
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
+SECOND_PUBLISHER = "a second publisher on "
+WRONG_TYPE = "a publisher of "
+FINDING_MARKS = (SECOND_PUBLISHER, WRONG_TYPE)  # how each finding begins (the runner reads them in node logs)
+
 
 def _type_name(msg_class: type) -> str:
     module = msg_class.__module__.split(".")[0]
@@ -54,7 +58,7 @@ class GraphWatch:
             publishers = node.get_publishers_info_by_topic(topic)
             for p in publishers:
                 if p.topic_type != ours:
-                    found.append(f"a publisher of {p.topic_type} on {topic} ({_who(p)}): the contract's type is"
+                    found.append(f"{WRONG_TYPE}{p.topic_type} on {topic} ({_who(p)}): the contract's type is"
                                  f" {ours} and its messages cannot reach this node")
             if topic in self.owned:
                 # Counted, not named: a second graph's node has the same name as this one.
@@ -62,7 +66,7 @@ class GraphWatch:
                 same_type = [p for p in publishers if p.topic_type == ours]
                 if len(same_type) > mine:
                     who = ", ".join(sorted({_who(p) for p in same_type}))
-                    found.append(f"a second publisher on {topic}, which this node owns ({len(same_type) - mine} more,"
+                    found.append(f"{SECOND_PUBLISHER}{topic}, which this node owns ({len(same_type) - mine} more,"
                                  f" from {who}): another graph on this ROS_DOMAIN_ID? Nodes reading {topic} now"
                                  " mix two sources")
         return found

@@ -94,3 +94,19 @@ def test_with_the_lidar_the_planner_avoids_what_the_tracker_sees_and_the_truth_i
         (tmp_path / name).write_text((config_dir() / name).read_text())
     with pytest.raises(ConfigError, match=r"lidar.rate = 0 in sim.yaml"):
         plan(crowd, Path("scenario.yaml"), tmp_path, 1, Path("bag"), perception="lidar")
+
+
+def test_what_a_node_saw_of_another_graph_is_read_from_its_log():
+    """A neighbour that came and went between the runner's own looks is still counted: the nodes report it."""
+    from twbr_runner.runner import graph_findings
+
+    log = ("[INFO] [1.0] [sim_node]: stepping\n"
+           "[ERROR] [1732880000.1] [sim_node]: a second publisher on /clock, which this node owns (1 more, from"
+           " /sim_node): another graph on this ROS_DOMAIN_ID? Nodes reading /clock now mix two sources\n"
+           "[ERROR] [1732880000.2] [controller_node]: a publisher of std_msgs/msg/String on /cmd_vel (/x): the"
+           " contract's type is geometry_msgs/msg/Twist and its messages cannot reach this node\n"
+           "[WARN] [2.0] [sim_node]: a second publisher on /odom is only a warning here\n")
+    found = graph_findings(log)
+    assert [f.split(",")[0].split(" (")[0] for f in found] == ["a second publisher on /clock",
+                                                                "a publisher of std_msgs/msg/String on /cmd_vel"]
+    assert graph_findings("[ERROR] [1.0] [planner_node]: dropped obstacles: no stamp\n") == []

@@ -20,6 +20,7 @@ import json
 import math
 import os
 import re
+import shutil
 import signal
 import sys
 import time
@@ -32,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from twbr_common.deploy import JIT_ENV
+from twbr_common.graph_watch import FINDING_MARKS
 from twbr_common.param_files import KNOWN_NODES, node_parameters
 from twbr_common.params import ConfigError, default_of
 from twbr_common.paths import config_dir
@@ -337,6 +339,14 @@ class Progress:
                     publishers.add(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
         return sorted(nodes) + sorted(publishers)
 
+    def earlier_runners(self) -> list[str]:
+        """Runners on this domain whose node claims an earlier start than this one's: looked at again once
+        this run's nodes are up, for a neighbour that discovery did not show within the first look."""
+        with _SIGNALS.deferred():
+            names = [name for name, _ in self.node.get_node_names_and_namespaces()]
+        return [f"runner {name} (started {(self.claim[0] - other[0]) / 1000:.1f} s before this one)"
+                for name in names if (other := runner_claim(name)) is not None and other < self.claim]
+
     def foreign_publishers(self, ours: Iterable[str]) -> list[str]:
         """Publishers on the run's topics that are none of its nodes (`ours`: their names): a node of
         another name, or a second publisher from a node of one of ours' names (another graph)."""
@@ -470,6 +480,7 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     _SIGNALS.pending = None
     previous = {s: signal.signal(s, _SIGNALS.handler) for s in (signal.SIGINT, signal.SIGTERM)}
     code, reason = 0, "completed"
+    busy: GraphBusy | None = None
     wall_start = time.monotonic()
     sim_wall: float | None = None
     try:
@@ -478,10 +489,12 @@ def run(opts: RunOptions) -> tuple[int, Path]:
                 # Discovery between two processes can take seconds: start the clock only once the
                 # recorder hears every other source, so the bag has the run from t = 0.
                 progress.wait_for_recorder(procs["recorder"], [t for s in nodes for t in s.recorded], 30.0)
+                step_back_if_later(progress, domain)
             procs[spec.label] = start_node(spec.package, spec.executable, spec.ros_args, {**env, **spec.env},
                                            log_dir, spec.label, spec.args, spec.niceness)
             if spec.label == "recorder":
                 progress.wait_for_recorder(procs["recorder"], [], 20.0)
+                step_back_if_later(progress, domain)  # before any publisher on the contract's topics is up
             if spec.label == "viewer":
                 _say(opts, f"  viewer: {viewer_url(procs['viewer'], 30.0)}")
         sim = procs["sim"]
@@ -512,6 +525,8 @@ def run(opts: RunOptions) -> tuple[int, Path]:
             raise RuntimeError(f"sim exited with code {sim.proc.returncode}:\n{_tail(sim.output)}")
         _say(opts, f"  sim time {progress.sim_time:6.2f} / {scenario.duration:g} s: {reason}" + " " * 20)
         progress.spin(0.3)  # let the last messages reach the recorder
+    except GraphBusy as e:
+        busy = e  # refused before the clock started: nothing measured, nothing kept (below)
     except Interrupted as e:
         code, reason = 128 + e.signum, f"interrupted by {e}"  # the shell's convention: 130 SIGINT, 143 SIGTERM
     except (RuntimeError, TimeoutError, ConfigError) as e:
@@ -531,6 +546,13 @@ def run(opts: RunOptions) -> tuple[int, Path]:
         if "recorder" in procs:
             procs["recorder"].stop()
         progress.close()
+    if busy is not None:
+        shutil.rmtree(run_dir, ignore_errors=True)
+        raise busy
+    if code == 0:  # what the nodes saw of the graph between the runner's looks (twbr_common.graph_watch)
+        for label, proc in procs.items():
+            for line in graph_findings(proc.output):
+                foreign.setdefault(f"{label} saw {line}", None)
     if foreign and code == 0:
         code = EXIT_FAILED
     if code != 0:
@@ -543,6 +565,20 @@ def run(opts: RunOptions) -> tuple[int, Path]:
     if metrics is None and code == 0:
         code = EXIT_FAILED
     return code, run_dir
+
+
+def step_back_if_later(progress: Progress, domain: int) -> None:
+    """Two runners started together on a loaded host may not see each other in the first look (discovery
+    can take seconds): looked at again while the nodes come up, the later one steps back, refused whole."""
+    if earlier := progress.earlier_runners():
+        raise GraphBusy(f"another graph is starting on ROS_DOMAIN_ID {domain}: {'; '.join(earlier)}"
+                        " (stop it, or run with --domain N)")
+
+
+def graph_findings(output: str) -> list[str]:
+    """The neighbours a node reported on its log (twbr_common.graph_watch's error lines)."""
+    return [line.split("]: ", 1)[-1] for line in output.splitlines()
+            if "[ERROR]" in line and any(mark in line for mark in FINDING_MARKS)]
 
 
 def watch_foreign(progress: Progress, ours: list[str], seen: dict[str, None]) -> None:
