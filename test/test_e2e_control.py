@@ -9,13 +9,14 @@ import os
 import resource
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import psutil
 import pytest
-from conftest import CONFIG, RUNNER, assert_refused_at_start, recorded_file
+from conftest import CONFIG, PATIENT_LOCKSTEP, RUNNER, assert_refused_at_start, recorded_file
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import SetBool
@@ -24,6 +25,7 @@ from twbr_common.geometry import rpy_from_quaternion
 from twbr_common.param_files import node_parameters
 from twbr_msgs.msg import ControllerState, SimStatus
 from twbr_runner.bag_reader import bag_info, read_messages
+from twbr_runner.spawn import NodeProcess
 
 pytestmark = pytest.mark.e2e
 
@@ -354,3 +356,57 @@ def test_the_deployable_nodes_start_as_documented_and_stay_small(launch, package
     assert ("llvmlite" in maps and "numba" in maps) == compiled
     rss_mib = psutil.Process(node.proc.pid).memory_info().rss / 2**20
     assert rss_mib <= max_mib, f"{name}: {rss_mib:.0f} MiB resident"
+
+
+LATE_PLAYER = """
+import sys, time
+import rclpy
+from geometry_msgs.msg import Twist
+from rosgraph_msgs.msg import Clock
+rclpy.init()
+node = rclpy.create_node("late_player")
+pub = node.create_publisher(Twist, "cmd_vel", 10)
+last = [None]
+def tick(m):
+    t = m.clock.sec + m.clock.nanosec * 1e-9
+    v = 0.1 if t >= 1.0 else 0.0  # the profile of config/scenarios/step.yaml
+    if v != last[0]:
+        if last[0] is not None:
+            time.sleep(0.3)  # starved: the step goes out 0.3 s (wall) after its /clock
+        last[0] = v
+    msg = Twist()
+    msg.linear.x = v
+    pub.publish(msg)
+node.create_subscription(Clock, "/clock", tick, 10)
+rclpy.spin(node)
+"""
+
+
+@pytest.mark.parametrize("wait", [True, False], ids=["waited_for", "before"])
+def test_a_player_late_with_its_profiles_step_still_steps_the_robot_on_time(launch, ros, ros_env, tmp_path, wait):
+    """A scripted profile's player starved on a loaded host (here it sends the 0.1 m/s step 0.3 s of wall time
+    after the /clock that called for it). Before (`lockstep_commands` false, the `before` case): the simulator
+    ran on with the controller alone and the step reached the controller more than 0.1 s late in sim time, here
+    not within the 2 s run (CI saw 1.1 and 1.22 s for 1.0 s); now the state of the change waits for it."""
+    player = NodeProcess([sys.executable, "-c", LATE_PLAYER], ros_env, tmp_path, "late_player")
+    refs: list[tuple[float, float]] = []
+    ros.node.create_subscription(ControllerState, "controller_state",
+                                 lambda m: refs.append((m.header.stamp.sec + m.header.stamp.nanosec * 1e-9,
+                                                        m.velocity_ref)), RELIABLE)
+    try:
+        launch("twbr_control", "controller_node", params=("controller.yaml",))
+        assert ros.spin_until(lambda: ros.node.count_subscribers("/clock") >= 2, 30.0), player.output
+        sim = launch("twbr_sim", "sim_node", "-p", "scenario:=step", "-p", "duration:=2.0",
+                     "-p", f"lockstep_commands:={str(wait).lower()}", "-p", "wait_for_subscribers:=1",
+                     *PATIENT_LOCKSTEP, params=SIM_PARAMS)
+        assert ros.spin_until(lambda: not sim.running, 120.0), sim.output
+        ros.spin_for(0.5)
+    finally:
+        player.stop()
+    stepped = [t for t, v in refs if v == pytest.approx(0.1)]
+    assert refs and refs[-1][0] >= 1.9, refs[-3:]  # the whole run, 2 s
+    if wait:
+        assert stepped and 1.0 <= stepped[0] <= 1.01, stepped[:1]
+        assert "lockstep timeout at" not in sim.output and ", 0 lockstep timeouts;" in sim.output, sim.output
+    else:
+        assert not stepped or stepped[0] > 1.1, stepped[0]  # late, or not within the run at all

@@ -251,6 +251,7 @@ def plan(scenario: Scenario, scenario_path: Path, config: Path, seed: int, bag_d
         "-p", "mode:=lockstep",
         "-p", f"wait_for_subscribers:={(3 if planner else 2) + lidar + (view_port is not None)}",
         "-p", f"lockstep_planner_rate:={float(planner_rate)}",
+        *(["-p", "lockstep_commands:=true"] if scenario.commands and not planner else []),
         *(["-p", f"lockstep_timeout:={float(lockstep_timeout)}"] if lockstep_timeout is not None else []),
         *(["-r", f"obstacles:={TRUTH_OBSTACLES}"] if lidar else []),
     ]))

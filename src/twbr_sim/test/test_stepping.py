@@ -31,6 +31,22 @@ def test_at_planning_instants_the_planner_output_is_awaited_too():
     assert ex.answered()
 
 
+def test_where_a_scripted_profile_changes_its_new_command_is_awaited_too():
+    """A command_player starved on a loaded host stepped the paper's velocity step 0.1-0.2 s late (the
+    simulator ran on with the controller alone): now the state of the change waits for the new command."""
+    ex = LockstepExchange()
+    ex.offered(200 * STATE_NS, 200, expected=(0.1, 0.0))  # the profile's step at t = 1 s
+    ex.command(200 * STATE_NS)
+    assert not ex.answered() and ex.missing() is Missing.SCRIPTED
+    ex.scripted((0.0, 0.0))  # the player's repeat of the old command, late: not the answer
+    assert not ex.answered()
+    ex.scripted((0.1, 0.0))
+    assert ex.answered()
+    ex.offered(201 * STATE_NS, 201)  # between changes only the controller is awaited
+    ex.command(201 * STATE_NS)
+    assert ex.answered()
+
+
 def test_nobody_answering_t0_holds_it_but_a_missing_answer_later_is_a_timeout():
     ex = LockstepExchange(wait_for_first_command=True)
     ex.offered(0, 0)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import PoseArray, Quaternion, TransformStamped
+from geometry_msgs.msg import PoseArray, Quaternion, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
@@ -38,13 +38,14 @@ from twbr_common.ros_io import (
     to_stamp,
 )
 from twbr_common.ros_params import declare, run_node
+from twbr_common.wire import stamp_seconds_of
 from twbr_msgs.msg import ObstacleArray, PlannerState, SimStatus, WheelTorques, WorldStatus
 from twbr_sim import dynamics as dyn
 from twbr_sim.encoders import J_ANGLE_LEFT, J_ANGLE_RIGHT, J_RATE_LEFT, J_RATE_RIGHT, J_VELOCITY, J_X, J_Y, J_YAW, J_YAW_RATE
 from twbr_sim.robot_params import P_R, ROBOT_SPECS, robot_params
 from twbr_sim.run_report import LatencyRecord, rates_text
 from twbr_sim.scan_messages import laser_scan, laser_transform, target_detections, target_sensor_transform
-from twbr_sim.scenario import Scenario, load_scenario
+from twbr_sim.scenario import Scenario, command_at, load_scenario
 from twbr_sim.scenario_files import find_scenario
 from twbr_sim.simulator import SIM_SPECS, Simulator, steps_per_publish
 from twbr_sim.stepping import LockstepExchange, Publications, RealtimeTicks, TimeoutAction
@@ -127,6 +128,12 @@ class SimNode(Node):
                 )
             self.create_subscription(PlannerState, "planner_state", self._on_planner_state, COMMAND_QOS)
         self.exchange = LockstepExchange(planner_every, cfg["wait_for_first_command"])
+        # A scripted profile's player is not in the torque loop either: at each change of the profile the state
+        # waits for the new command, which the simulator knows from the same scenario file.
+        self._script = scenario if self.lockstep and cfg["lockstep_commands"] and scenario and scenario.commands else None
+        self._script_last: tuple[float, float] | None = None
+        if self._script is not None:
+            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, COMMAND_QOS)
         self.publications = Publications(cfg["clock_rate"] if cfg["clock_rate"] > 0.0 else cfg["publish_rate"],
                                          cfg["world_rate"], cfg["tf_rate"], cfg["marker_rate"], cfg["lidar.rate"],
                                          cfg["target_sensor.rate"] if self.pub_detections is not None else 0.0)
@@ -160,6 +167,9 @@ class SimNode(Node):
         if self.exchange.command(stamp_ns(msg.header.stamp)) and self._published_at is not None:
             # State published -> its command received: the whole control loop over DDS.
             self._latencies.add(time.perf_counter() - self._published_at)
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self.exchange.scripted((msg.linear.x, msg.angular.z))
 
     def _on_planner_state(self, msg: PlannerState) -> None:
         self.exchange.planner(stamp_ns(msg.header.stamp))
@@ -228,8 +238,15 @@ class SimNode(Node):
         self.pub_imu.publish(self._imu_msg)
         if self.pub_truth is not None and not again:
             self.pub_truth.publish(self.truth_message())
-        # A new state: its command is awaited (lockstep) and its latency measured (both).
-        self.exchange.offered(now_ns, self.sim.step_count)
+        # A new state: its command is awaited (lockstep) and its latency measured (both); and the profile's new
+        # command, where it changes at a state the player sees (one with /clock: it plays on /clock's time).
+        expected = None
+        if self._script is not None and clock_due and not again:
+            v, w = command_at(self._script, stamp_seconds_of(now_ns))
+            value = (float(v), float(w))
+            expected = value if self._script_last is not None and value != self._script_last else None
+            self._script_last = value
+        self.exchange.offered(now_ns, self.sim.step_count, expected)
 
     def _control_messages(self) -> tuple[Clock, Odometry, Imu]:
         """The clock, odom and imu messages every state refills: publish() serializes at once, and building

@@ -17,6 +17,7 @@ from twbr_common.timing import Decimator
 class Missing(Enum):
     COMMAND = "wheel_torque_cmd"
     PLANNER = "planner_state"
+    SCRIPTED = "cmd_vel"
 
 
 class TimeoutAction(Enum):
@@ -26,7 +27,9 @@ class TimeoutAction(Enum):
 
 class LockstepExchange:
     """The answers the pending state awaits: the command stamped with it, and at every `planner_every`-th
-    physics step the planner's output stamped with it too (0: the planner is not waited for).
+    physics step the planner's output stamped with it too (0: the planner is not waited for), and where a
+    scripted cmd_vel profile changes, the new command seen on cmd_vel (`expected`: unstamped, it is known
+    by its value).
 
     Only an answer stamped with the pending state counts: a late one, or one from a stray publisher,
     never stands in for the answer to the state the simulator holds.
@@ -39,12 +42,22 @@ class LockstepExchange:
         self._step_count = 0
         self.command_matched = False
         self._planner_ns: int | None = None
+        self.expected: tuple[float, float] | None = None
+        self._expected_seen = False
 
-    def offered(self, stamp_ns: int, step_count: int) -> None:
-        """A state stamped `stamp_ns` at physics step `step_count` went out: its answers are awaited."""
+    def offered(self, stamp_ns: int, step_count: int, expected: tuple[float, float] | None = None) -> None:
+        """A state stamped `stamp_ns` at physics step `step_count` went out: its answers are awaited, and
+        the scripted command `expected` (v, omega) on cmd_vel, when the profile changes at this state."""
         self.pending_ns = stamp_ns
         self._step_count = step_count
         self.command_matched = False
+        self.expected = expected
+        self._expected_seen = False
+
+    def scripted(self, command: tuple[float, float]) -> None:
+        """A cmd_vel (v, omega) seen: the awaited one if it is the profile's new value."""
+        if self.expected is not None and command == self.expected:
+            self._expected_seen = True
 
     def command(self, stamp_ns: int) -> bool:
         """An admitted command stamped `stamp_ns`; true when it is the first answer to the pending state."""
@@ -62,12 +75,14 @@ class LockstepExchange:
         return bool(self.planner_every) and self._step_count % self.planner_every == 0
 
     def answered(self) -> bool:
-        if not self.command_matched:
+        if not self.command_matched or (self.expected is not None and not self._expected_seen):
             return False
         return self._planner_ns == self.pending_ns if self.planner_due else True
 
     def missing(self) -> Missing:
-        return Missing.COMMAND if not self.command_matched else Missing.PLANNER
+        if not self.command_matched:
+            return Missing.COMMAND
+        return Missing.SCRIPTED if self.expected is not None and not self._expected_seen else Missing.PLANNER
 
     def timed_out(self) -> TimeoutAction:
         """The wall-clock wait ran out without the answers: what to do."""
