@@ -79,7 +79,11 @@ def test_tracks_are_where_the_world_s_obstacles_are(launch, ros):
     # arc that shows (off by up to a radius), and a hidden one's track coasts on its prediction for up to
     # tracking.max_misses scans: issue 36 leaves those to be measured "while visible"; none is far off.
     assert errors and errors[len(errors) // 2] < 0.05 and errors[int(0.9 * len(errors))] < 0.25, errors[-10:]
-    assert errors[-1] < 0.6
+    # The furthest off: a person who stops (crowd_crossing's walkers pause at their waypoints) or turns while
+    # hidden, the track coasting on at up to 0.68 m/s for tracking.max_misses = 5 scans at 10 Hz (0.34 m), and
+    # fitted to the arc of a half-hidden disc when seen again (up to its 0.3 m radius): 0.64 m. (0.6 failed
+    # once in CI at 0.608.)
+    assert errors[-1] < 0.3 + 5 * 0.1 * 0.68
     assert near_total > 0 and near_seen / near_total >= 0.7, (near_seen, near_total)
     tracker.stop()
     assert "scans tracked" in tracker.output
