@@ -49,7 +49,9 @@ class CommandPlayer(Node):
 
     def _tick(self, t: float) -> None:
         command = command_at(self.scenario, t)
-        if command == self._last and t - self._last_time < 1.0 / self.cfg["rate"]:
+        # a clock that did not move is a state offered again (a lockstep simulator holding t = 0 until it
+        # hears the player): answered again
+        if command == self._last and 0.0 < t - self._last_time < 1.0 / self.cfg["rate"]:
             return
         self._last, self._last_time = command, t
         twist = Twist()
