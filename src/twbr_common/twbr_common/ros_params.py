@@ -27,12 +27,14 @@ from rclpy.exceptions import (
 )
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
-from twbr_common.executor import spin_until_shutdown
+from twbr_common.executor import StopSignals, spin_until_shutdown
 from twbr_common.guard import SIM_FUTURE_TOLERANCE, future_tolerance, input_specs
 from twbr_common.node_process import process_specs, settle_process
 from twbr_common.param_files import check_overrides, preflight
 from twbr_common.params import ConfigError, ParamSpec
+from twbr_common.ros_io import flush_publishers
 from twbr_common.streams import InputStreams
 
 EXIT_CONFIG_ERROR = 2
@@ -41,6 +43,8 @@ EXIT_CONFIG_ERROR = 2
 # DomainParticipant::set_listener while a discovery callback waits on a lock (seen on this machine when
 # nodes of a graph stop together; eProsima/Fast-DDS#6513): a Ctrl-C must still end the process.
 SHUTDOWN_GRACE_S = 10.0
+FLUSH_S = 2.0  # [s] at most, on the way out: a lagging recorder's acknowledgements
+STOP_POLL_S = 0.1  # [s] a spun node looks for a stop signal at least this often
 
 _TYPES = {
     bool: ParameterType.PARAMETER_BOOL,
@@ -120,7 +124,13 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     except ConfigError as e:
         print(f"[FATAL] [{name}]: refusing to start: {e}", file=sys.stderr, flush=True)
         return EXIT_CONFIG_ERROR
-    rclpy.init(args=argv)
+    # A spun node stops on a signal with its context up, and waits (FLUSH_S at most) until reliable
+    # subscribers have what it published: a recorder that lags on a loaded host then still gets a run's
+    # last planner_state (a CI bag lost its last 3 s when the planner exited on the runner's SIGINT). A node
+    # with its own loop (the simulator) ends its runs itself and flushes then.
+    spun = not hasattr(make_node, "run")
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO if spun else SignalHandlerOptions.ALL)
+    stop = StopSignals() if spun else None
     node = None
     code = 0
     try:
@@ -131,7 +141,7 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
         if hasattr(node, "run"):
             node.run()
         else:
-            spin_until_shutdown(node)
+            spin_until_shutdown(node, STOP_POLL_S, stop)
     except ConfigError as e:
         rclpy.logging.get_logger(name).fatal(f"refusing to start: {e}")
         code = EXIT_CONFIG_ERROR
@@ -144,6 +154,9 @@ def run_node(name: str, make_node: Callable[[], Node], argv: list[str] | None = 
     finally:
         with signals_ignored(), exit_deadline(SHUTDOWN_GRACE_S):
             if node is not None:
+                if stop is not None and node.context.ok():
+                    with contextlib.suppress(Exception):  # best effort: the teardown goes on regardless
+                        flush_publishers(node, FLUSH_S)
                 node.destroy_node()
             if rclpy.ok():
                 rclpy.try_shutdown()

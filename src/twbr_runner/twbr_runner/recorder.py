@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
-import signal
 import sys
 import time
 from pathlib import Path
@@ -37,6 +36,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
 
+from twbr_common.executor import StopSignals
 from twbr_msgs.msg import RecorderStatus
 from twbr_runner.bag_writer import BagWriter, disk_full_text, is_disk_full, qos_profile, typestore_with
 
@@ -210,19 +210,6 @@ class Recorder(Node):
 
 def _never_called(_data: bytes) -> None:
     raise AssertionError("a drained subscription was called back")
-
-
-class StopSignals:
-    """SIGINT/SIGTERM end the recording, with the context still up: rclpy's own handler would shut it
-    down first, and the messages waiting since the last drain could no longer be taken."""
-
-    def __init__(self) -> None:
-        self.received: int | None = None
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, self._handle)
-
-    def _handle(self, signum: int, _frame) -> None:
-        self.received = signum
 
 
 def record_until_shutdown(node: Recorder, drain_period: float, stop: StopSignals) -> None:
