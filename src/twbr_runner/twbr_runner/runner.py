@@ -327,24 +327,24 @@ class Progress:
         deadline = time.monotonic() + listen_s
         while time.monotonic() < deadline:
             self.spin(0.1)
-        nodes, publishers = set(), set()
+        publishers = set()
         with _SIGNALS.deferred():
-            for name, namespace in self.node.get_node_names_and_namespaces():
-                if name in (*KNOWN_NODES, "recorder"):
-                    nodes.add(f"node {namespace.rstrip('/')}/{name}")
-                other = runner_claim(name)
-                if other is not None and other < self.claim:
-                    nodes.add(f"runner {name} (started {(self.claim[0] - other[0]) / 1000:.1f} s before this one)")
+            graph = self.node.get_node_names_and_namespaces()
+            nodes = {f"node {namespace.rstrip('/')}/{name}" for name, namespace in graph
+                     if name in (*KNOWN_NODES, "recorder")}
+            nodes.update(self.earlier_runners([name for name, _ in graph]))
             for topic in RECORDED_TOPICS:
                 for p in self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic)):
                     publishers.add(f"{p.node_namespace.rstrip('/')}/{p.node_name} publishing {topic} [{p.topic_type}]")
         return sorted(nodes) + sorted(publishers)
 
-    def earlier_runners(self) -> list[str]:
-        """Runners on this domain whose node claims an earlier start than this one's: looked at again once
-        this run's nodes are up, for a neighbour that discovery did not show within the first look."""
-        with _SIGNALS.deferred():
-            names = [name for name, _ in self.node.get_node_names_and_namespaces()]
+    def earlier_runners(self, names: list[str] | None = None) -> list[str]:
+        """Runners among the graph's node `names` (looked up when None) whose node claims an earlier start
+        than this one's: also looked at again once this run's nodes are up, for a neighbour that discovery
+        did not show within the first look."""
+        if names is None:
+            with _SIGNALS.deferred():
+                names = [name for name, _ in self.node.get_node_names_and_namespaces()]
         return [f"runner {name} (started {(self.claim[0] - other[0]) / 1000:.1f} s before this one)"
                 for name in names if (other := runner_claim(name)) is not None and other < self.claim]
 
