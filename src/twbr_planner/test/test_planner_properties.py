@@ -56,6 +56,7 @@ def test_the_start_up_line_names_the_method_that_runs_and_its_additions():
     assert describe(resolve({"method": "paper"})).startswith("the paper's potential field (eqs. 19-28): K_p 1,")
     robust = describe(resolve({"method": "robust", "yield_horizon": 0.0, "safety_filter": False}))
     assert robust.startswith("the robust potential field") and "K_v" not in robust
-    assert "with goal-reachable field, escape, evasion, speed policy, dynamic window; off: yielding, safety filter" in robust
+    assert ("with goal-reachable field, escape, evasion, speed policy, dynamic window, social prediction; off:"
+            " yielding, safety filter") in robust
     assert describe(resolve({"method": "dwa"})).startswith("the dynamic window (Fox et al. 1997): 3 s rollouts")
     assert describe(resolve({"method": "vo"})).startswith("velocity obstacles (Fiorini & Shiller 1998): 5 s")

@@ -11,6 +11,7 @@ from twbr_planner.apf import N_MEMORY, R_LAST_V, Mode
 from twbr_planner.apf import settings_vector as vector
 from twbr_planner.dwa import rollout
 from twbr_planner.planner_params import resolve
+from twbr_planner.prediction import predict_paths
 
 
 def settings(**overrides):
@@ -24,11 +25,18 @@ def world(*obstacles):
     return rows[:, :2].copy(), velocities, rows[:, 4].copy()
 
 
+def lines(positions, velocities, radii, horizon=10.0):
+    """The obstacles' straight-line paths (the dynamic window baseline's prediction)."""
+    return predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0)
+
+
 def command(cfg, obstacles, v0=0.4, alpha=0.0, v_nominal=0.6, omega_nominal=0.0):
     m = np.zeros(N_MEMORY)
     m[R_LAST_V] = v0
+    paths = predict_paths(*obstacles, cfg["window_horizon"], cfg["prediction_strength"], cfg["prediction_range"],
+                          cfg["prediction_relaxation_time"])
     return window.window_command(vector(cfg), m, 0.0, 0.0, 0.0, v_nominal, omega_nominal, alpha, 10.0, False,
-                                 *obstacles)
+                                 *obstacles, paths)
 
 
 def test_without_a_mover_in_reach_the_field_drives():
@@ -46,13 +54,14 @@ def test_a_walker_crossing_the_way_is_passed_clear_where_the_fields_command_meet
     a = vector(cfg)
     walker = world((1.6, -1.0, 0.0, 0.5, 0.3))  # crosses the robot's line 1.6 m ahead in 2 s
     positions, velocities, radii = walker
-    straight = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, positions, velocities, radii, cfg["window_horizon"],
+    paths = lines(positions, velocities, radii)
+    straight = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, positions, velocities, paths, radii, cfg["window_horizon"],
                        cfg["window_margin"])
     assert straight[1] < cfg["window_horizon"]  # the field's command (straight on) touches the walker
     v, omega, windowed = command(cfg, walker)
     assert windowed
-    chosen = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, v, omega, positions, velocities, radii, cfg["window_horizon"],
-                       cfg["window_margin"])
+    chosen = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, v, omega, positions, velocities, paths, radii, cfg["window_horizon"],
+                     cfg["window_margin"])
     assert chosen[1] == math.inf  # never within window_margin over the horizon
     assert chosen[0] > cfg["window_margin"]
 
@@ -98,12 +107,14 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
         radii = rng.uniform(0.2, 0.6, n)
         v0 = rng.uniform(-0.2, 0.6)
         near = within_reach(a, 0.0, 0.0, v0, positions, velocities, radii, horizon, max(cap, margin))
-        left_out += n - len(near[2])
+        left_out += n - len(near)
+        paths = lines(positions, velocities, radii)
         for i in range(V_SAMPLES):
             for k in range(OMEGA_SAMPLES):
                 v_goal, w_goal = candidate(a, cfg["v_max"], i, k)
-                every = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions, velocities, radii, horizon,
-                                margin)
-                kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, *near, horizon, margin)
+                every = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions, velocities, paths, radii,
+                                horizon, margin)
+                kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions[near], velocities[near],
+                               paths[near], radii[near], horizon, margin)
                 assert kept[1] == every[1] and min(kept[0], cap) == min(every[0], cap)
     assert left_out > 0

@@ -8,8 +8,19 @@ import pytest
 from twbr_planner import yielding
 from twbr_planner.apf import N_MEMORY, settings_vector
 from twbr_planner.planner_params import resolve
+from twbr_planner.prediction import predict_paths
 
-NO_OBSTACLE = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
+NO_OBSTACLE = (np.zeros((0, 2)), np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros(0))
+
+
+def lines(positions, velocities, radii, horizon=10.0):
+    """(positions, velocities, paths, radii): the obstacles on their straight lines alone."""
+    return positions, velocities, predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0), radii
+
+
+def scene(positions, velocities, radii):
+    """yield_command's obstacles: (positions, velocities, radii, paths) on their straight lines."""
+    return positions, velocities, radii, lines(positions, velocities, radii)[2]
 
 
 def settings(**overrides):
@@ -19,8 +30,8 @@ def settings(**overrides):
 def conflict(a, obstacle, v0=0.6, v_goal=0.6, heading=math.nan, moving_only=False):
     positions, velocities, radii = (np.array([obstacle[:2]], dtype=float), np.array([obstacle[2:4]], dtype=float),
                                     np.array([obstacle[4]], dtype=float))
-    return yielding.first_conflict(a, 0.0, 0.0, 0.0, v0, 0.0, v_goal, 0.0, heading, positions, velocities, radii,
-                                   5.0, moving_only)[0]
+    return yielding.first_conflict(a, 0.0, 0.0, 0.0, v0, 0.0, v_goal, 0.0, heading,
+                                   *lines(positions, velocities, radii), 5.0, moving_only)[0]
 
 
 def test_a_rollout_meets_a_head_on_obstacle_when_they_touch_and_an_empty_world_never():
@@ -41,17 +52,17 @@ def test_static_obstacles_alone_never_make_it_yield():
     a = settings()
     m = np.zeros(N_MEMORY)
     wall = np.array([[1.0, 0.0]]), np.zeros((1, 2)), np.array([0.5])
-    assert yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 5.0, 0.0, *wall) == (0.6, 0.0, False)
+    assert yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 5.0, 0.0, *scene(*wall)) == (0.6, 0.0, False)
 
 
 def test_it_stands_aside_for_a_person_coming_its_way_and_goes_on_when_the_way_is_clear():
     a = settings()
     m = np.zeros(N_MEMORY)
     person = np.array([[3.0, 0.0]]), np.array([[-0.6, 0.0]]), np.array([0.3])
-    v, w, yielding_now = yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 10.0, 0.0, *person)
+    v, w, yielding_now = yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 10.0, 0.0, *scene(*person))
     assert yielding_now and (v, w) != (0.6, 0.0)
     gone = np.array([[-3.0, 0.0]]), np.array([[-0.6, 0.0]]), np.array([0.3])  # it has passed
-    assert yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 10.0, 0.0, *gone) == (0.6, 0.0, False)
+    assert yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.6, 0.0, 10.0, 0.0, *scene(*gone)) == (0.6, 0.0, False)
 
 
 def test_it_waits_at_a_passage_a_cart_is_coming_through():

@@ -57,6 +57,7 @@ from twbr_planner.apf import (
     top_speed,
     write_output,
 )
+from twbr_planner.prediction import nearer_position, predict_paths
 
 V_SAMPLES = 7  # forward speeds from 0 to v_max
 OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s apart by default: the heading
@@ -73,7 +74,7 @@ def candidate(a, v_top, i, k):
 
 @kernel
 def within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond):
-    """The obstacles (positions, velocities, radii) that a rollout from (x, y) [m] starting at v0 [m/s] may
+    """The indices of the obstacles that a rollout from (x, y) [m] starting at v0 [m/s] may
     bring within `beyond` [m] over `horizon` [s]: the others can change neither a rollout's admissibility
     nor its clearance capped at `beyond`, and skipping them makes the same choice at a fraction of the cost
     in clutter (benchmarks/bench_planner.py)."""
@@ -85,15 +86,15 @@ def within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond):
         if math.hypot(positions[j, 0] - x, positions[j, 1] - y) - radii[j] - a[A_ROBOT_RADIUS] <= reach:
             keep[count] = j
             count += 1
-    chosen = keep[:count]
-    return positions[chosen], velocities[chosen], radii[chosen]
+    return keep[:count]
 
 
 @kernel
-def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii, horizon, margin):
+def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, paths, radii, horizon, margin):
     """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
-    acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles moving at their
-    velocity (inf without obstacles) and when it first falls below `margin` [m] (inf never)."""
+    acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles on their lines
+    or their predicted paths (prediction.nearer_position; inf without obstacles) and when it first falls
+    below `margin` [m] (inf never)."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
@@ -109,8 +110,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, radii, 
         y += v * math.sin(yaw) * ROLLOUT_STEP
         t = k * ROLLOUT_STEP
         for j in range(radii.shape[0]):
-            ox = positions[j, 0] + velocities[j, 0] * t
-            oy = positions[j, 1] + velocities[j, 1] * t
+            ox, oy = nearer_position(positions, velocities, paths, j, t, x, y)
             gap = math.hypot(x - ox, y - oy) - radii[j] - robot_radius
             clearance = min(clearance, gap)
             if gap < margin and contact == math.inf:
@@ -148,12 +148,16 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     best_w = 0.0
     best_yaw = yaw
     v_top = top_speed(a, distance, moving_target)
-    near_p, near_v, near_r = within_reach(a, x, y, v0, positions, velocities, radii, a[A_DWA_HORIZON],
-                                          max(cap, a[A_SAFETY_MARGIN]))
+    near = within_reach(a, x, y, v0, positions, velocities, radii, a[A_DWA_HORIZON], max(cap, a[A_SAFETY_MARGIN]))
+    near_p = positions[near]
+    near_v = velocities[near]
+    near_r = radii[near]
+    # Fox et al.'s obstacles at their constant velocity: the straight-line prediction (strength 0)
+    paths = predict_paths(near_p, near_v, near_r, a[A_DWA_HORIZON], 0.0, 1.0, 1.0)
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, near_r,
+            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, paths, near_r,
                                                        a[A_DWA_HORIZON], a[A_SAFETY_MARGIN])
             score = objective(a[A_DWA_HEADING_WEIGHT], a[A_DWA_CLEARANCE_WEIGHT], a[A_DWA_SPEED_WEIGHT], cap,
                               math.atan2(target_y - ey, target_x - ex) - eyaw, clearance, v_goal, a[A_V_MAX])

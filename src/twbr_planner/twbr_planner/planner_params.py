@@ -135,6 +135,13 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("window_speed_weight", 0.6, "robust: the window's weight of the speed", "", 0.0, 100.0),
     ParamSpec("window_clearance_cap", 1.0, "robust: a rollout's clearance beyond this scores no more in the"
               " window", "m", 0.0, 100.0, low_open=True),
+    ParamSpec("prediction_strength", 2.1, "robust: the social force's push at contact (Helbing's A) with which a"
+              " moving obstacle's predicted path bends round the static discs in its way (prediction.py); 0:"
+              " straight lines", "m/s²", 0.0, 1000.0),
+    ParamSpec("prediction_range", 0.3, "robust: the predicted push's decay length (Helbing's B)", "m", 0.0, 100.0,
+              low_open=True),
+    ParamSpec("prediction_relaxation_time", 0.5, "robust: a predicted walker regains its present velocity in this"
+              " time", "s", 0.0, 100.0, low_open=True),
     # The baseline peers (method: dwa, method: vo); they share v_max, the acceleration limits,
     # brake_deceleration, robot_radius, safety_margin, rho_o (the mode's range), arrival and the stuck report.
     ParamSpec("dwa_horizon", 3.0, "dwa: each (v, omega) is rolled out this long, obstacles at constant velocity",
@@ -218,7 +225,8 @@ def resolve(overrides: Mapping[str, Any] | None = None, scenario: Any = None) ->
 ROBUST_ADDITIONS = (("goal-reachable field", "goal_fade", 0.0), ("escape", "follow_range", 0.0),
                     ("evasion", "evade_horizon", 0.0), ("speed policy", "speed_policy", False),
                     ("yielding", "yield_horizon", 0.0), ("safety filter", "safety_filter", False),
-                    ("dynamic window", "window_horizon", 0.0))
+                    ("dynamic window", "window_horizon", 0.0),
+                    ("social prediction", "prediction_strength", 0.0))
 
 
 def describe(cfg: Mapping[str, Any]) -> str:

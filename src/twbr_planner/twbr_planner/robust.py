@@ -1,6 +1,6 @@
 """The robust potential-field planner (`method: robust`): the paper's field, and what its failures call for.
 
-It keeps the paper's attraction (eq. 21) and repulsion (eq. 23) and steers along their sum, with six
+It keeps the paper's attraction (eq. 21) and repulsion (eq. 23) and steers along their sum, with eight
 additions, one module each (docs/planner.md says where each comes from), each switched off by one parameter
 for the ablation study, in the manner of Nav2 MPPI's critics:
 
@@ -11,7 +11,9 @@ for the ablation study, in the manner of Nav2 MPPI's critics:
 5. yielding.py: a look-ahead over the predicted motion that waits, steps aside or backs out (yield_horizon);
 6. safety_filter.py: a control barrier function per obstacle (safety_filter);
 7. window.py: among moving obstacles, the field's direction driven by a dynamic window (window_horizon),
-   in place of the safety filter.
+   in place of the safety filter;
+8. prediction.py: the paths the window's and the yielding's rollouts expect the moving obstacles on, bent
+   round the static discs as people walk (prediction_strength).
 
 This module only composes them; everything is compiled and shared with the batch engine, like the paper's
 `apf_step`.
@@ -27,9 +29,17 @@ from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_BRAKE_DECELERATION,
     A_MAX_YAW_JERK,
+    A_PREDICTION_RANGE,
+    A_PREDICTION_RELAXATION_TIME,
+    A_PREDICTION_STRENGTH,
     A_RHO_O,
     A_SAFETY_FILTER,
     A_V_MAX,
+    A_WINDOW_HORIZON,
+    A_WINDOW_MIN_SPEED,
+    A_YIELD_HORIZON,
+    A_YIELD_MARGIN,
+    A_YIELD_UNCERTAINTY,
     AVOIDING,
     ESCAPING,
     EVADING,
@@ -48,10 +58,26 @@ from twbr_planner.apf import (
 from twbr_planner.escape import escape
 from twbr_planner.evasion import evade
 from twbr_planner.field import field
+from twbr_planner.prediction import predict_paths
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
 from twbr_planner.window import window_command
-from twbr_planner.yielding import yield_command
+from twbr_planner.yielding import MOVING, in_reach, yield_command
+
+
+@kernel
+def predicted(a, x, y, positions, velocities, radii, arrived):
+    """The moving obstacles' predicted paths (8.) over the window's and the yielding's horizons, computed only
+    when one of them will roll out against them (else one sample each, never read)."""
+    window = a[A_WINDOW_HORIZON]
+    look = a[A_YIELD_HORIZON]
+    if not arrived and ((window > 0.0 and in_reach(a, x, y, positions, velocities, radii, window,
+                                                   max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0))
+                        or (look > 0.0 and in_reach(a, x, y, positions, velocities, radii, look, MOVING,
+                                                    a[A_YIELD_MARGIN], a[A_YIELD_UNCERTAINTY]))):
+        return predict_paths(positions, velocities, radii, max(window, look), a[A_PREDICTION_STRENGTH],
+                             a[A_PREDICTION_RANGE], a[A_PREDICTION_RELAXATION_TIME])
+    return np.zeros((radii.shape[0], 2, 2))
 
 
 @kernel
@@ -93,14 +119,15 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     # 7. among moving obstacles, the field's direction driven by a dynamic window; 5. yielding to what the
     # look-ahead sees coming, 6. the safety filter, then the acceleration limits
     windowed = False
+    paths = predicted(a, x, y, positions, velocities, radii, arrived)
     # an obstacle faster than the robot being evaded is left to the evasion: no rollout outruns it
     outrun = threat >= 0 and math.hypot(velocities[threat, 0], velocities[threat, 1]) > a[A_V_MAX]
     if not arrived and not outrun:
         v, omega, windowed = window_command(a, m, x, y, yaw, v, omega, alpha, distance, moving_target, positions,
-                                            velocities, radii)
+                                            velocities, radii, paths)
     if not arrived:
         v, omega, yielding = yield_command(a, m, x, y, yaw, v, omega, target_x, target_y, positions, velocities,
-                                           radii)
+                                           radii, paths)
         if yielding:
             mode = YIELDING
     # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path the robot turns at once

@@ -4,9 +4,9 @@ driven the way the dynamic window approach drives to its target (Fox, Burgard & 
 The field steers along the present forces and the speed policy brakes for what is ahead; among walkers that
 makes a slow robot that lingers in their lanes (clutter with movers: half the median speed of the dynamic
 window, and twice its collisions). Here, while a moving obstacle can come within reach over `window_horizon`,
-a grid of (v, omega) commands is rolled out at the acceleration limits against every obstacle at its constant
-velocity (dwa.rollout) and scored as Fox et al. score theirs, with the heading measured to the field's
-direction instead of the target's (the field keeps its escape from local minima and its evasion):
+a grid of (v, omega) commands is rolled out at the acceleration limits against every obstacle on its line
+and on its predicted path (prediction.py; dwa.rollout) and scored as Fox et al. score theirs, with the
+heading measured to the field's direction instead of the target's (the field keeps its escape from local minima and its evasion):
 window_heading_weight * heading + window_clearance_weight * clearance (capped at window_clearance_cap) +
 window_speed_weight * speed. A rollout within window_margin of an obstacle is not admissible (wider than the
 safety filter's margin, whose barrier does not run beside it); when none is (tight quarters), the field's
@@ -37,7 +37,7 @@ from twbr_planner.yielding import MOVING, in_reach
 
 @kernel
 def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, moving_target, positions,
-                   velocities, radii):
+                   velocities, radii, paths):
     """(v, omega, windowed): the best-scoring admissible rollout towards the field's direction `alpha` [rad]
     while a moving obstacle is in reach; else (or with none admissible) the field's command."""
     horizon = a[A_WINDOW_HORIZON]
@@ -48,15 +48,18 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = top_speed(a, distance, moving_target)
-    near_p, near_v, near_r = within_reach(a, x, y, v0, positions, velocities, radii, horizon,
-                                          max(cap, a[A_WINDOW_MARGIN]))
+    near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, max(cap, a[A_WINDOW_MARGIN]))
+    near_p = positions[near]
+    near_v = velocities[near]
+    near_paths = paths[near]
+    near_r = radii[near]
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, near_r,
+            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, near_paths, near_r,
                                                      horizon, a[A_WINDOW_MARGIN])
             if contact < math.inf:
                 continue  # not admissible

@@ -3,7 +3,8 @@
 The field, the evasion and the safety filter act on the present (and the evasion on a straight-line
 closest approach). Among people that is not enough: a person crossing behind the robot, a cart coming
 down a passage the robot has entered, a flow it is about to join. This step looks `yield_horizon` seconds
-ahead. Each obstacle's predicted position is its constant-velocity line, and its predicted disc grows
+ahead. Each obstacle's predicted position is on its line or on its predicted path (prediction.py: round
+the static discs in its way), and its predicted disc grows
 with the horizon by `yield_uncertainty` times the distance it walks (people turn, slow down and stop; the
 set of places a walker can be widens with time, after the reachable-set view of Fiorini & Shiller's
 velocity obstacles and the growing-covariance prediction of tracking filters). The robot's rollouts
@@ -37,6 +38,7 @@ from twbr_planner.apf import (
     R_LAST_V,
     ramp_speed,
 )
+from twbr_planner.prediction import nearer_position
 
 ROLLOUT_STEP = 0.25  # [s]
 SPEEDS = 7  # candidate speeds, from -BACK_SHARE * v_max to v_max
@@ -49,10 +51,11 @@ MOVING = 1e-3  # [m/s] an obstacle slower than this is static
 
 
 @kernel
-def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, velocities, radii, horizon,
+def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, velocities, paths, radii, horizon,
                    moving_only):
     """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of an
-    obstacle's predicted disc (its line, grown by the uncertainty; only the moving ones when moving_only);
+    obstacle's predicted disc (on its line or its predicted path, grown by the uncertainty; only the moving
+    ones when moving_only);
     `horizon` when it never does; and where the rollout is then. A finite `heading` [rad] steers to it
     instead of holding w_goal."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
@@ -76,8 +79,7 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, vel
             vy = velocities[j, 1]
             if moving_only and vx * vx + vy * vy < MOVING * MOVING:
                 continue
-            ox = positions[j, 0] + vx * t
-            oy = positions[j, 1] + vy * t
+            ox, oy = nearer_position(positions, velocities, paths, j, t, x, y)
             grown = radii[j] + reach + growth * math.hypot(vx, vy) * t
             dx = x - ox
             dy = y - oy
@@ -103,7 +105,8 @@ def in_reach(a, x, y, positions, velocities, radii, horizon, min_speed, margin, 
 
 
 @kernel
-def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y, positions, velocities, radii):
+def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y, positions, velocities, radii,
+                  paths):
     """(v, omega, yielding): the field's command if its look-ahead stays clear, else the candidate whose first
     conflict comes latest (nearest the field's command among equals); yielding when it is not the field's."""
     horizon = a[A_YIELD_HORIZON]
@@ -112,11 +115,11 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
         return v_nominal, omega_nominal, False
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
-    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, radii,
+    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, paths, radii,
                       horizon, True)[0] >= horizon:
         return v_nominal, omega_nominal, False  # no moving obstacle in the way: the field's command stands
     # the rest is judged against every obstacle: backing away from a person must not back into a wall
-    best, ex, ey = first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities,
+    best, ex, ey = first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, paths,
                                   radii, horizon, False)
     best_v = v_nominal
     best_w = omega_nominal
@@ -132,7 +135,7 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
                 else:
                     heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
                     cw = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
-                conflict, ex, ey = first_conflict(a, x, y, yaw, v0, w0, cv, cw, heading, positions, velocities,
+                conflict, ex, ey = first_conflict(a, x, y, yaw, v0, w0, cv, cw, heading, positions, velocities, paths,
                                                   radii, horizon, False)
                 # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
                 cost = math.hypot(target_x - ex, target_y - ey) + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
