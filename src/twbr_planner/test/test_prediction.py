@@ -36,7 +36,7 @@ def test_without_a_push_every_obstacle_keeps_its_line_and_the_static_ones_stay()
 def test_a_walker_with_nothing_near_its_way_walks_straight_and_a_post_in_its_way_is_gone_round():
     cfg = resolve({"method": "robust"})
     alone = social(cfg, (0.0, 0.0, 0.5, 0.0, 0.3), (0.0, 5.0, 0.0, 0.0, 0.4))
-    assert alone[0, -1] == pytest.approx((2.5 + 0.5 * (alone.shape[1] - 1 - 50) * PREDICTION_STEP, 0.0), abs=1e-9)
+    assert alone[0, -1] == pytest.approx((0.5 * (alone.shape[1] - 1) * PREDICTION_STEP, 0.0), abs=1e-9)
     # a post 0.3 m beside its line, 2 m ahead: the straight line runs into it; the prediction slows, passes it
     # on the side away from its centre with its disc clear of the post's, and walks on past it
     paths = social(cfg, (0.0, 0.0, 0.5, 0.0, 0.3), (2.0, 0.3, 0.0, 0.0, 0.4), horizon=8.0)
@@ -47,8 +47,8 @@ def test_a_walker_with_nothing_near_its_way_walks_straight_and_a_post_in_its_way
 
 def test_the_prediction_follows_a_world_walker_round_a_post_where_the_straight_line_does_not():
     """The world's walker (twbr_sim.agents, social force, heading for a far waypoint) passing a post: from its
-    state at 1.5 s the prediction stays within 0.12 m of where it walks over the next 4 s; its straight line
-    ends 0.3 m or more away."""
+    state at 1.5 s the prediction stays within 0.1 m of where it walks over the next 4 s (0.07 m when written);
+    its straight line ends 0.3 m or more away."""
     cfg = resolve({"method": "robust"})
     spec = np.zeros((2, ag.N_AGENT))
     post, walker = spec
@@ -76,7 +76,7 @@ def test_the_prediction_follows_a_world_walker_round_a_post_where_the_straight_l
         ag.agents_at(spec, state, steps, t, positions, velocities)
         worst = max(worst, float(np.hypot(*(np.array(predicted_position(paths, 1, k * 0.1)) - positions[1]))))
     straight_end = start + 4.0 * start_velocity
-    assert worst < 0.12
+    assert worst < 0.1
     assert np.hypot(*(straight_end - positions[1])) > 0.3
 
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from twbr_common.jit import kernel
 
-PREDICTION_STEP = 0.1  # [s] the paths' sampling and integration step
+PREDICTION_STEP = 0.2  # [s] the paths' sampling and integration step
 ANISOTROPY = 0.5  # Helbing's lambda: the weight of a disc behind the walker against one ahead of it
 REACH = 5.0  # pushes from discs farther than this many `range`s from the walker's surface (< e^-5) are left out
 SPEED_CAP = 1.3  # a predicted walker stays below this times its present speed (Helbing's v_max = 1.3 v0)
@@ -92,9 +92,11 @@ def predict_paths(positions, velocities, radii, horizon, strength, push_range, r
                 dx = x - positions[o, 0]
                 dy = y - positions[o, 1]
                 reach = radii[o] + radii[j]
-                d = max(math.hypot(dx, dy), 1e-6)
-                if d - reach > REACH * push_range:
+                far = reach + REACH * push_range
+                d2 = dx * dx + dy * dy
+                if d2 > far * far:
                     continue
+                d = max(math.sqrt(d2), 1e-6)
                 magnitude = strength * math.exp((reach - d) / push_range)
                 cos_phi = -(dx * ux + dy * uy) / d  # the disc ahead of it: 1
                 weight = ANISOTROPY + (1.0 - ANISOTROPY) * 0.5 * (1.0 + cos_phi)
@@ -119,6 +121,8 @@ def nearer_position(positions, velocities, paths, j, t, x, y):
     its bent path (a person's), the one nearer the point (x, y)."""
     lx = positions[j, 0] + velocities[j, 0] * t
     ly = positions[j, 1] + velocities[j, 1] * t
+    if velocities[j, 0] == 0.0 and velocities[j, 1] == 0.0:
+        return lx, ly  # a static disc: its path is where it is
     px, py = predicted_position(paths, j, t)
     if (px - x) ** 2 + (py - y) ** 2 < (lx - x) ** 2 + (ly - y) ** 2:
         return px, py
