@@ -5,7 +5,7 @@ The window's and the yielding's rollouts judge a command against where the movin
 straight line is what a cart does; a person walking through clutter steps round the post ahead of them
 (clutter with movers: most of the robust method's collisions there were with walkers whose paths bent round
 a post the robot was passing, benchmarks/HISTORY.md). Each moving obstacle is predicted here with the
-social force model (Helbing & Molnár 1995, "Social force model for pedestrian dynamics", Phys. Rev. E 51(5)):
+social force model (Helbing & Molnár 1995; the world's walkers' own push, twbr_common.social_force):
 it wants to keep its present velocity (the planner knows neither its goal nor its route), relaxes towards it
 in `prediction_relaxation_time`, and every static disc pushes it away by
 A exp((r_ij - d_ij) / B) along the line between them (A `prediction_strength`, B `prediction_range`),
@@ -32,10 +32,9 @@ import math
 import numpy as np
 
 from twbr_common.jit import kernel
+from twbr_common.social_force import ANISOTROPY, REACH, helbing_push
 
 PREDICTION_STEP = 0.2  # [s] the paths' sampling and integration step
-ANISOTROPY = 0.5  # Helbing's lambda: the weight of a disc behind the walker against one ahead of it
-REACH = 5.0  # pushes from discs farther than this many `range`s from the walker's surface (< e^-5) are left out
 SPEED_CAP = 1.3  # a predicted walker stays below this times its present speed (Helbing's v_max = 1.3 v0)
 MOVING = 1e-3  # [m/s] an obstacle slower than this is static
 
@@ -96,12 +95,10 @@ def predict_paths(positions, velocities, radii, horizon, strength, push_range, r
                 d2 = dx * dx + dy * dy
                 if d2 > far * far:
                     continue
-                d = max(math.sqrt(d2), 1e-6)
-                magnitude = strength * math.exp((reach - d) / push_range)
-                cos_phi = -(dx * ux + dy * uy) / d  # the disc ahead of it: 1
-                weight = ANISOTROPY + (1.0 - ANISOTROPY) * 0.5 * (1.0 + cos_phi)
-                ax += weight * magnitude * dx / d
-                ay += weight * magnitude * dy / d
+                px, py = helbing_push(strength, push_range, ANISOTROPY, x, y, ux, uy, positions[o, 0],
+                                      positions[o, 1], reach)
+                ax += px
+                ay += py
             vx += ax * dt
             vy += ay * dt
             speed = math.hypot(vx, vy)

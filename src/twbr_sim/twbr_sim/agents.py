@@ -34,6 +34,7 @@ import numpy as np
 
 from twbr_common.jit import kernel
 from twbr_common.layout import Layout
+from twbr_common.social_force import helbing_push
 
 STEP = 0.05  # [s] the integration step of every kind but straight
 MOTIONS = ("straight", "waypoints", "wander")
@@ -235,15 +236,9 @@ def _desired_velocity(spec, waypoints, state, i, t):
 @kernel
 def _push(spec, i, x, y, heading, other_x, other_y, reach):
     """Helbing's repulsion on agent i at (x, y) from a disc at (other_x, other_y) whose surface is `reach`
-    from the centre of one touching agent i: A exp((reach - d) / B) n, weighted for what is behind."""
-    dx = x - other_x
-    dy = y - other_y
-    d = max(math.hypot(dx, dy), 1e-6)
-    magnitude = spec[i, AP_STRENGTH] * math.exp((reach - d) / spec[i, AP_RANGE])
-    lam = spec[i, AP_ANISOTROPY]
-    cos_phi = -(dx * math.cos(heading) + dy * math.sin(heading)) / d  # the other in front of it: 1
-    weight = lam + (1.0 - lam) * 0.5 * (1.0 + cos_phi)
-    return weight * magnitude * dx / d, weight * magnitude * dy / d
+    from the centre of one touching agent i (twbr_common.social_force)."""
+    return helbing_push(spec[i, AP_STRENGTH], spec[i, AP_RANGE], spec[i, AP_ANISOTROPY], x, y, math.cos(heading),
+                        math.sin(heading), other_x, other_y, reach)
 
 
 @kernel
