@@ -9,7 +9,7 @@ import pytest
 from twbr_planner import yielding
 from twbr_planner.apf import N_MEMORY, R_LAST_V, settings_vector
 from twbr_planner.planner_params import resolve
-from twbr_planner.prediction import PREDICTION_STEP, predict_paths, predicted_position
+from twbr_planner.prediction import PREDICTION_STEP, hypotheses, predict_paths, predicted_position
 from twbr_sim import agents as ag
 
 
@@ -92,8 +92,9 @@ def test_the_look_ahead_sees_a_walker_stepping_round_a_post_into_the_robots_way(
     for strength in (0.0, cfg["prediction_strength"]):
         paths = predict_paths(positions, velocities, radii, horizon, strength, cfg["prediction_range"],
                               cfg["prediction_relaxation_time"])
-        conflicts.append(yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.4, 0.0, math.nan, positions,
-                                                 velocities, paths, radii, horizon, True)[0])
+        samples = hypotheses(positions, velocities, paths, horizon, yielding.ROLLOUT_STEP)
+        conflicts.append(yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.4, 0.0, math.nan, samples,
+                                                 velocities, radii, horizon, True)[0])
         m = np.zeros(N_MEMORY)
         m[R_LAST_V] = 0.4
         conflicts.append(yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.4, 0.0, 10.0, 0.0, positions, velocities,

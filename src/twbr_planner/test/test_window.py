@@ -9,9 +9,9 @@ from unicycle import drive as drive_unicycle
 from twbr_planner import window
 from twbr_planner.apf import N_MEMORY, R_LAST_V, Mode
 from twbr_planner.apf import settings_vector as vector
-from twbr_planner.dwa import rollout
+from twbr_planner.dwa import ROLLOUT_STEP, rollout
 from twbr_planner.planner_params import resolve
-from twbr_planner.prediction import predict_paths
+from twbr_planner.prediction import hypotheses, predict_paths
 
 
 def settings(**overrides):
@@ -26,8 +26,9 @@ def world(*obstacles):
 
 
 def lines(positions, velocities, radii, horizon=10.0):
-    """The obstacles' straight-line paths (the dynamic window baseline's prediction)."""
-    return predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0)
+    """What a rollout meets: the obstacles on their straight lines (the dynamic window baseline's prediction)."""
+    return hypotheses(positions, velocities, predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0),
+                      horizon, ROLLOUT_STEP)
 
 
 def command(cfg, obstacles, v0=0.4, alpha=0.0, v_nominal=0.6, omega_nominal=0.0):
@@ -55,12 +56,12 @@ def test_a_walker_crossing_the_way_is_passed_clear_where_the_fields_command_meet
     walker = world((1.6, -1.0, 0.0, 0.5, 0.3))  # crosses the robot's line 1.6 m ahead in 2 s
     positions, velocities, radii = walker
     paths = lines(positions, velocities, radii)
-    straight = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, positions, velocities, paths, radii, cfg["window_horizon"],
+    straight = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.6, 0.0, paths, radii, cfg["window_horizon"],
                        cfg["window_margin"])
     assert straight[1] < cfg["window_horizon"]  # the field's command (straight on) touches the walker
     v, omega, windowed = command(cfg, walker)
     assert windowed
-    chosen = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, v, omega, positions, velocities, paths, radii, cfg["window_horizon"],
+    chosen = rollout(a, 0.0, 0.0, 0.0, 0.4, 0.0, v, omega, paths, radii, cfg["window_horizon"],
                      cfg["window_margin"])
     assert chosen[1] == math.inf  # never within window_margin over the horizon
     assert chosen[0] > cfg["window_margin"]
@@ -112,9 +113,9 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
         for i in range(V_SAMPLES):
             for k in range(OMEGA_SAMPLES):
                 v_goal, w_goal = candidate(a, cfg["v_max"], i, k)
-                every = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions, velocities, paths, radii,
+                every = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths, radii,
                                 horizon, margin)
-                kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, positions[near], velocities[near],
-                               paths[near], radii[near], horizon, margin)
+                kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths[:, near], radii[near], horizon,
+                               margin)
                 assert kept[1] == every[1] and min(kept[0], cap) == min(every[0], cap)
     assert left_out > 0

@@ -57,7 +57,7 @@ from twbr_planner.apf import (
     top_speed,
     write_output,
 )
-from twbr_planner.prediction import nearer_position, predict_paths
+from twbr_planner.prediction import hypotheses, nearer_distance2, predict_paths
 
 V_SAMPLES = 7  # forward speeds from 0 to v_max
 OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s apart by default: the heading
@@ -90,11 +90,11 @@ def within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond):
 
 
 @kernel
-def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, paths, radii, horizon, margin):
+def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margin):
     """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
     acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles on their lines
-    or their predicted paths (prediction.nearer_position; inf without obstacles) and when it first falls
-    below `margin` [m] (inf never)."""
+    or their predicted paths (`samples`: prediction.hypotheses at ROLLOUT_STEP over the horizon; inf without
+    obstacles) and when it first falls below `margin` [m] (inf never)."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
@@ -110,8 +110,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, positions, velocities, paths, 
         y += v * math.sin(yaw) * ROLLOUT_STEP
         t = k * ROLLOUT_STEP
         for j in range(radii.shape[0]):
-            ox, oy = nearer_position(positions, velocities, paths, j, t, x, y)
-            gap = math.hypot(x - ox, y - oy) - radii[j] - robot_radius
+            gap = math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) - radii[j] - robot_radius
             clearance = min(clearance, gap)
             if gap < margin and contact == math.inf:
                 contact = t
@@ -154,10 +153,11 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     near_r = radii[near]
     # Fox et al.'s obstacles at their constant velocity: the straight-line prediction (strength 0)
     paths = predict_paths(near_p, near_v, near_r, a[A_DWA_HORIZON], 0.0, 1.0, 1.0)
+    samples = hypotheses(near_p, near_v, paths, a[A_DWA_HORIZON], ROLLOUT_STEP)
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, paths, near_r,
+            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
                                                        a[A_DWA_HORIZON], a[A_SAFETY_MARGIN])
             score = objective(a[A_DWA_HEADING_WEIGHT], a[A_DWA_CLEARANCE_WEIGHT], a[A_DWA_SPEED_WEIGHT], cap,
                               math.atan2(target_y - ey, target_x - ex) - eyaw, clearance, v_goal, a[A_V_MAX])

@@ -16,7 +16,7 @@ A planner cannot tell a person from a cart, which goes on along its line whateve
 the walls' pushes, whose sideways parts cancel, predict a cart coming through it slowed to a crawl, and a
 robot that trusts that enters the passage (suite/narrow_passage, seeds 1-60: 6 avoidable collisions with the
 bent path alone, 2 with the straight line). So a rollout meets an obstacle where either comes near: its
-straight line or its bent path (`nearer_position`). Other moving obstacles and the robot do not push in
+straight line or its bent path (`hypotheses`). Other moving obstacles and the robot do not push in
 the prediction: how people give way to each other and to a robot is the part no planner can count on, and
 yielding's growing discs (yield_uncertainty) stand for it. prediction_strength 0 gives the straight lines
 (the dynamic window baseline's constant-velocity prediction, `method: dwa`).
@@ -113,17 +113,31 @@ def predict_paths(positions, velocities, radii, horizon, strength, push_range, r
 
 
 @kernel
-def nearer_position(positions, velocities, paths, j, t, x, y):
-    """(x, y) [m]: of obstacle j's two predicted positions at t [s], on its straight line (a cart's) and on
-    its bent path (a person's), the one nearer the point (x, y)."""
-    lx = positions[j, 0] + velocities[j, 0] * t
-    ly = positions[j, 1] + velocities[j, 1] * t
-    if velocities[j, 0] == 0.0 and velocities[j, 1] == 0.0:
-        return lx, ly  # a static disc: its path is where it is
-    px, py = predicted_position(paths, j, t)
-    if (px - x) ** 2 + (py - y) ** 2 < (lx - x) ** 2 + (ly - y) ** 2:
-        return px, py
-    return lx, ly
+def hypotheses(positions, velocities, paths, horizon, step):
+    """(K, n, 4) [m]: each obstacle at k `step` [s], k = 1..K (K = horizon / step, rounded, at least 1), on its
+    straight line (x, y: a cart's) and on its bent path (x, y: a person's). A rollout meets the nearer of the
+    two; they are the same for every rollout of a plan, so they are computed once per plan."""
+    count = max(1, int(horizon / step + 0.5))
+    n = positions.shape[0]
+    out = np.empty((count, n, 4))
+    for k in range(count):
+        t = (k + 1) * step
+        for j in range(n):
+            out[k, j, 0] = positions[j, 0] + velocities[j, 0] * t
+            out[k, j, 1] = positions[j, 1] + velocities[j, 1] * t
+            out[k, j, 2], out[k, j, 3] = predicted_position(paths, j, t)
+    return out
+
+
+@kernel
+def nearer_distance2(samples, k, j, x, y):
+    """[m^2] the squared distance from (x, y) to the nearer of obstacle j's two positions in `samples` row k
+    (hypotheses)."""
+    dx = x - samples[k, j, 0]
+    dy = y - samples[k, j, 1]
+    ex = x - samples[k, j, 2]
+    ey = y - samples[k, j, 3]
+    return min(dx * dx + dy * dy, ex * ex + ey * ey)
 
 
 @kernel

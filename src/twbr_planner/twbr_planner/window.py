@@ -31,7 +31,8 @@ from twbr_planner.apf import (
     R_LAST_V,
     top_speed,
 )
-from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, objective, rollout, within_reach
+from twbr_planner.dwa import OMEGA_SAMPLES, ROLLOUT_STEP, V_SAMPLES, candidate, objective, rollout, within_reach
+from twbr_planner.prediction import hypotheses
 from twbr_planner.yielding import MOVING, in_reach
 
 
@@ -49,17 +50,15 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = top_speed(a, distance, moving_target)
     near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, max(cap, a[A_WINDOW_MARGIN]))
-    near_p = positions[near]
-    near_v = velocities[near]
-    near_paths = paths[near]
     near_r = radii[near]
+    samples = hypotheses(positions[near], velocities[near], paths[near], horizon, ROLLOUT_STEP)
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, near_p, near_v, near_paths, near_r,
+            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
                                                      horizon, a[A_WINDOW_MARGIN])
             if contact < math.inf:
                 continue  # not admissible

@@ -38,7 +38,7 @@ from twbr_planner.apf import (
     R_LAST_V,
     ramp_speed,
 )
-from twbr_planner.prediction import nearer_position
+from twbr_planner.prediction import hypotheses, nearer_distance2
 
 ROLLOUT_STEP = 0.25  # [s]
 SPEEDS = 7  # candidate speeds, from -BACK_SHARE * v_max to v_max
@@ -51,11 +51,11 @@ MOVING = 1e-3  # [m/s] an obstacle slower than this is static
 
 
 @kernel
-def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, velocities, paths, radii, horizon,
+def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon,
                    moving_only):
     """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of an
-    obstacle's predicted disc (on its line or its predicted path, grown by the uncertainty; only the moving
-    ones when moving_only);
+    obstacle's predicted disc (on its line or its predicted path, `samples`: prediction.hypotheses at
+    ROLLOUT_STEP over the horizon; grown by the uncertainty; only the moving ones when moving_only);
     `horizon` when it never does; and where the rollout is then. A finite `heading` [rad] steers to it
     instead of holding w_goal."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
@@ -79,11 +79,8 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, positions, vel
             vy = velocities[j, 1]
             if moving_only and vx * vx + vy * vy < MOVING * MOVING:
                 continue
-            ox, oy = nearer_position(positions, velocities, paths, j, t, x, y)
             grown = radii[j] + reach + growth * math.hypot(vx, vy) * t
-            dx = x - ox
-            dy = y - oy
-            if dx * dx + dy * dy < grown * grown:
+            if nearer_distance2(samples, k - 1, j, x, y) < grown * grown:
                 return t - ROLLOUT_STEP, x, y  # the last instant known clear
     return horizon, x, y
 
@@ -115,11 +112,12 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
         return v_nominal, omega_nominal, False
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
-    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, paths, radii,
+    samples = hypotheses(positions, velocities, paths, horizon, ROLLOUT_STEP)
+    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, radii,
                       horizon, True)[0] >= horizon:
         return v_nominal, omega_nominal, False  # no moving obstacle in the way: the field's command stands
     # the rest is judged against every obstacle: backing away from a person must not back into a wall
-    best, ex, ey = first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, positions, velocities, paths,
+    best, ex, ey = first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities,
                                   radii, horizon, False)
     best_v = v_nominal
     best_w = omega_nominal
@@ -135,7 +133,7 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
                 else:
                     heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
                     cw = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
-                conflict, ex, ey = first_conflict(a, x, y, yaw, v0, w0, cv, cw, heading, positions, velocities, paths,
+                conflict, ex, ey = first_conflict(a, x, y, yaw, v0, w0, cv, cw, heading, samples, velocities,
                                                   radii, horizon, False)
                 # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
                 cost = math.hypot(target_x - ex, target_y - ey) + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
