@@ -58,17 +58,17 @@ from twbr_planner.apf import (
 from twbr_planner.escape import escape
 from twbr_planner.evasion import evade
 from twbr_planner.field import field
-from twbr_planner.prediction import predict_paths
+from twbr_planner.prediction import MOVING, predict_paths
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
 from twbr_planner.window import window_command
-from twbr_planner.yielding import MOVING, in_reach, yield_command
+from twbr_planner.yielding import in_reach, yield_command
 
 
 @kernel
 def predicted(a, x, y, positions, velocities, radii, arrived):
     """The moving obstacles' predicted paths (8.) over the window's and the yielding's horizons, computed only
-    when one of them will roll out against them (else one sample each, never read)."""
+    when one of them will roll out against them (else a table of zeros, never read)."""
     window = a[A_WINDOW_HORIZON]
     look = a[A_YIELD_HORIZON]
     if not arrived and ((window > 0.0 and in_reach(a, x, y, positions, velocities, radii, window,

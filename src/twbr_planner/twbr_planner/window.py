@@ -32,8 +32,8 @@ from twbr_planner.apf import (
     top_speed,
 )
 from twbr_planner.dwa import OMEGA_SAMPLES, ROLLOUT_STEP, V_SAMPLES, candidate, objective, rollout, within_reach
-from twbr_planner.prediction import hypotheses
-from twbr_planner.yielding import MOVING, in_reach
+from twbr_planner.prediction import MOVING, hypotheses
+from twbr_planner.yielding import in_reach
 
 
 @kernel

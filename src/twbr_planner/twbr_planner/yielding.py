@@ -38,7 +38,7 @@ from twbr_planner.apf import (
     R_LAST_V,
     ramp_speed,
 )
-from twbr_planner.prediction import hypotheses, nearer_distance2
+from twbr_planner.prediction import MOVING, hypotheses, nearer_distance2
 
 ROLLOUT_STEP = 0.25  # [s]
 SPEEDS = 7  # candidate speeds, from -BACK_SHARE * v_max to v_max
@@ -47,7 +47,6 @@ YAW_RATES = 7  # candidate yaw rates, from -max_yaw_rate to max_yaw_rate
 HEADINGS = 12  # candidate headings to steer to, round the circle (the escapes a sideways step needs)
 STEER_GAIN = 2.0  # [1/s] the yaw-rate command towards a candidate heading (the field's K_s)
 OMEGA_WEIGHT = 0.1  # [m s^2] among equally safe candidates: a yaw-rate change against their end's distance
-MOVING = 1e-3  # [m/s] an obstacle slower than this is static
 
 
 @kernel
