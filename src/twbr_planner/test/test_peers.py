@@ -10,7 +10,7 @@ from twbr_planner import dwa, velocity_obstacles
 from twbr_planner.apf import Mode, Obstacles, settings_vector
 from twbr_planner.planner import ApfPlanner, Target
 from twbr_planner.planner_params import resolve
-from twbr_planner.prediction import hypotheses, predict_paths
+from twbr_planner.prediction import straight_hypotheses
 
 
 @pytest.mark.parametrize("method", ["dwa", "vo"])
@@ -75,8 +75,7 @@ def test_dwa_prefers_an_admissible_rollout_and_the_one_that_touches_last_when_no
     wall = np.array([[1.2, y] for y in np.arange(-3.0, 3.01, 0.4)])
     radii = np.full(len(wall), 0.25)
     still = np.zeros_like(wall)
-    samples = hypotheses(wall, still, predict_paths(wall, still, radii, g["dwa_horizon"], 0.0, 1.0, 1.0),
-                         g["dwa_horizon"], dwa.ROLLOUT_STEP)
+    samples = straight_hypotheses(wall, still, g["dwa_horizon"], dwa.ROLLOUT_STEP)
     clearance, contact, *_ = dwa.rollout(a, 0.0, 0.0, 0.0, 0.6, 0.0, 0.6, 0.0, samples, radii, g["dwa_horizon"],
                                          g["safety_margin"])
     assert contact < g["dwa_horizon"] and clearance < 0.0  # full speed at the wall: it cannot brake in time

@@ -11,7 +11,7 @@ from twbr_planner.apf import N_MEMORY, R_LAST_V, Mode
 from twbr_planner.apf import settings_vector as vector
 from twbr_planner.dwa import ROLLOUT_STEP, rollout
 from twbr_planner.planner_params import resolve
-from twbr_planner.prediction import hypotheses, predict_paths
+from twbr_planner.prediction import predict_paths, straight_hypotheses
 
 
 def settings(**overrides):
@@ -27,8 +27,7 @@ def world(*obstacles):
 
 def lines(positions, velocities, radii, horizon=10.0):
     """What a rollout meets: the obstacles on their straight lines (the dynamic window baseline's prediction)."""
-    return hypotheses(positions, velocities, predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0),
-                      horizon, ROLLOUT_STEP)
+    return straight_hypotheses(positions, velocities, horizon, ROLLOUT_STEP)
 
 
 def command(cfg, obstacles, v0=0.4, alpha=0.0, v_nominal=0.6, omega_nominal=0.0):

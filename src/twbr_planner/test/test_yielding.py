@@ -8,25 +8,19 @@ import pytest
 from twbr_planner import yielding
 from twbr_planner.apf import N_MEMORY, settings_vector
 from twbr_planner.planner_params import resolve
-from twbr_planner.prediction import hypotheses, predict_paths
+from twbr_planner.prediction import predict_paths, straight_hypotheses
 
 NO_OBSTACLE = (np.zeros((40, 0, 4)), np.zeros((0, 2)), np.zeros(0))
 
 
-def straight(positions, velocities, radii, horizon=10.0):
-    """The obstacles' straight-line paths."""
-    return predict_paths(positions, velocities, radii, horizon, 0.0, 1.0, 1.0)
-
-
 def lines(positions, velocities, radii, horizon=10.0):
     """(samples, velocities, radii): what first_conflict rolls out against, the obstacles on their lines."""
-    samples = hypotheses(positions, velocities, straight(positions, velocities, radii), horizon, yielding.ROLLOUT_STEP)
-    return samples, velocities, radii
+    return straight_hypotheses(positions, velocities, horizon, yielding.ROLLOUT_STEP), velocities, radii
 
 
 def scene(positions, velocities, radii):
     """yield_command's obstacles: (positions, velocities, radii, paths) on their straight lines."""
-    return positions, velocities, radii, straight(positions, velocities, radii)
+    return positions, velocities, radii, predict_paths(positions, velocities, radii, 10.0, 0.0, 1.0, 1.0)
 
 
 def settings(**overrides):

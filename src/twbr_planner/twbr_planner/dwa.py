@@ -57,7 +57,7 @@ from twbr_planner.apf import (
     top_speed,
     write_output,
 )
-from twbr_planner.prediction import hypotheses, nearer_distance2, predict_paths
+from twbr_planner.prediction import nearer_distance2, straight_hypotheses
 
 V_SAMPLES = 7  # forward speeds from 0 to v_max
 OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s apart by default: the heading
@@ -148,12 +148,8 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     best_yaw = yaw
     v_top = top_speed(a, distance, moving_target)
     near = within_reach(a, x, y, v0, positions, velocities, radii, a[A_DWA_HORIZON], max(cap, a[A_SAFETY_MARGIN]))
-    near_p = positions[near]
-    near_v = velocities[near]
     near_r = radii[near]
-    # Fox et al.'s obstacles at their constant velocity: the straight-line prediction (strength 0)
-    paths = predict_paths(near_p, near_v, near_r, a[A_DWA_HORIZON], 0.0, 1.0, 1.0)
-    samples = hypotheses(near_p, near_v, paths, a[A_DWA_HORIZON], ROLLOUT_STEP)
+    samples = straight_hypotheses(positions[near], velocities[near], a[A_DWA_HORIZON], ROLLOUT_STEP)
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)

@@ -130,6 +130,21 @@ def hypotheses(positions, velocities, paths, horizon, step):
 
 
 @kernel
+def straight_hypotheses(positions, velocities, horizon, step):
+    """`hypotheses` of obstacles on their straight lines alone (Fox et al.'s constant velocity, the `dwa`
+    method's): both of an obstacle's positions are on its line, with no path to predict or read."""
+    count = max(1, int(horizon / step + 0.5))
+    n = positions.shape[0]
+    out = np.empty((count, n, 4))
+    for k in range(count):
+        t = (k + 1) * step
+        for j in range(n):
+            out[k, j, 0] = out[k, j, 2] = positions[j, 0] + velocities[j, 0] * t
+            out[k, j, 1] = out[k, j, 3] = positions[j, 1] + velocities[j, 1] * t
+    return out
+
+
+@kernel
 def nearer_distance2(samples, k, j, x, y):
     """[m^2] the squared distance from (x, y) to the nearer of obstacle j's two positions in `samples` row k
     (hypotheses)."""

@@ -36,10 +36,7 @@ from twbr_planner.apf import (
     A_SAFETY_FILTER,
     A_V_MAX,
     A_WINDOW_HORIZON,
-    A_WINDOW_MIN_SPEED,
     A_YIELD_HORIZON,
-    A_YIELD_MARGIN,
-    A_YIELD_UNCERTAINTY,
     AVOIDING,
     ESCAPING,
     EVADING,
@@ -58,25 +55,21 @@ from twbr_planner.apf import (
 from twbr_planner.escape import escape
 from twbr_planner.evasion import evade
 from twbr_planner.field import field
-from twbr_planner.prediction import MOVING, predict_paths
+from twbr_planner.prediction import predict_paths
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
-from twbr_planner.window import window_command
-from twbr_planner.yielding import in_reach, yield_command
+from twbr_planner.window import window_acts, window_command
+from twbr_planner.yielding import yield_acts, yield_command
 
 
 @kernel
 def predicted(a, x, y, positions, velocities, radii, arrived):
     """The moving obstacles' predicted paths (8.) over the window's and the yielding's horizons, computed only
     when one of them will roll out against them (else a table of zeros, never read)."""
-    window = a[A_WINDOW_HORIZON]
-    look = a[A_YIELD_HORIZON]
-    if not arrived and ((window > 0.0 and in_reach(a, x, y, positions, velocities, radii, window,
-                                                   max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0))
-                        or (look > 0.0 and in_reach(a, x, y, positions, velocities, radii, look, MOVING,
-                                                    a[A_YIELD_MARGIN], a[A_YIELD_UNCERTAINTY]))):
-        return predict_paths(positions, velocities, radii, max(window, look), a[A_PREDICTION_STRENGTH],
-                             a[A_PREDICTION_RANGE], a[A_PREDICTION_RELAXATION_TIME])
+    if not arrived and (window_acts(a, x, y, positions, velocities, radii)
+                        or yield_acts(a, x, y, positions, velocities, radii)):
+        return predict_paths(positions, velocities, radii, max(a[A_WINDOW_HORIZON], a[A_YIELD_HORIZON]),
+                             a[A_PREDICTION_STRENGTH], a[A_PREDICTION_RANGE], a[A_PREDICTION_RELAXATION_TIME])
     return np.zeros((radii.shape[0], 2, 2))
 
 

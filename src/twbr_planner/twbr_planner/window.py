@@ -37,14 +37,21 @@ from twbr_planner.yielding import in_reach
 
 
 @kernel
+def window_acts(a, x, y, positions, velocities, radii):
+    """Whether the window drives: a walker-fast obstacle can come near within window_horizon (and it is on)."""
+    horizon = a[A_WINDOW_HORIZON]
+    return horizon > 0.0 and in_reach(a, x, y, positions, velocities, radii, horizon,
+                                      max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0)
+
+
+@kernel
 def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, moving_target, positions,
                    velocities, radii, paths):
     """(v, omega, windowed): the best-scoring admissible rollout towards the field's direction `alpha` [rad]
     while a moving obstacle is in reach; else (or with none admissible) the field's command."""
-    horizon = a[A_WINDOW_HORIZON]
-    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon,
-                                      max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0):
+    if not window_acts(a, x, y, positions, velocities, radii):
         return v_nominal, omega_nominal, False
+    horizon = a[A_WINDOW_HORIZON]
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]

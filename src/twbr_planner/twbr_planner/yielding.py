@@ -101,14 +101,21 @@ def in_reach(a, x, y, positions, velocities, radii, horizon, min_speed, margin, 
 
 
 @kernel
+def yield_acts(a, x, y, positions, velocities, radii):
+    """Whether the look-ahead runs: a moving obstacle can come within reach over yield_horizon (and it is on)."""
+    horizon = a[A_YIELD_HORIZON]
+    return horizon > 0.0 and in_reach(a, x, y, positions, velocities, radii, horizon, MOVING, a[A_YIELD_MARGIN],
+                                      a[A_YIELD_UNCERTAINTY])
+
+
+@kernel
 def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y, positions, velocities, radii,
                   paths):
     """(v, omega, yielding): the field's command if its look-ahead stays clear, else the candidate whose first
     conflict comes latest (nearest the field's command among equals); yielding when it is not the field's."""
-    horizon = a[A_YIELD_HORIZON]
-    if horizon <= 0.0 or not in_reach(a, x, y, positions, velocities, radii, horizon, MOVING,
-                                                a[A_YIELD_MARGIN], a[A_YIELD_UNCERTAINTY]):
+    if not yield_acts(a, x, y, positions, velocities, radii):
         return v_nominal, omega_nominal, False
+    horizon = a[A_YIELD_HORIZON]
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
     samples = hypotheses(positions, velocities, paths, horizon, ROLLOUT_STEP)
