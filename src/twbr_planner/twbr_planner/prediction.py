@@ -113,26 +113,9 @@ def predict_paths(positions, velocities, radii, horizon, strength, push_range, r
 
 
 @kernel
-def hypotheses(positions, velocities, paths, horizon, step):
-    """(K, n, 4) [m]: each obstacle at k `step` [s], k = 1..K (K = horizon / step, rounded, at least 1), on its
-    straight line (x, y: a cart's) and on its bent path (x, y: a person's). A rollout meets the nearer of the
-    two; they are the same for every rollout of a plan, so they are computed once per plan."""
-    count = max(1, int(horizon / step + 0.5))
-    n = positions.shape[0]
-    out = np.empty((count, n, 4))
-    for k in range(count):
-        t = (k + 1) * step
-        for j in range(n):
-            out[k, j, 0] = positions[j, 0] + velocities[j, 0] * t
-            out[k, j, 1] = positions[j, 1] + velocities[j, 1] * t
-            out[k, j, 2], out[k, j, 3] = predicted_position(paths, j, t)
-    return out
-
-
-@kernel
 def straight_hypotheses(positions, velocities, horizon, step):
     """`hypotheses` of obstacles on their straight lines alone (Fox et al.'s constant velocity, the `dwa`
-    method's): both of an obstacle's positions are on its line, with no path to predict or read."""
+    method's): both of an obstacle's positions on its line; `hypotheses` then puts the bent paths beside."""
     count = max(1, int(horizon / step + 0.5))
     n = positions.shape[0]
     out = np.empty((count, n, 4))
@@ -141,6 +124,19 @@ def straight_hypotheses(positions, velocities, horizon, step):
         for j in range(n):
             out[k, j, 0] = out[k, j, 2] = positions[j, 0] + velocities[j, 0] * t
             out[k, j, 1] = out[k, j, 3] = positions[j, 1] + velocities[j, 1] * t
+    return out
+
+
+@kernel
+def hypotheses(positions, velocities, paths, horizon, step):
+    """(K, n, 4) [m]: each obstacle at k `step` [s], k = 1..K (K = horizon / step, rounded, at least 1), on its
+    straight line (x, y: a cart's) and on its bent path (x, y: a person's). A rollout meets the nearer of the
+    two; they are the same for every rollout of a plan, so they are computed once per plan."""
+    out = straight_hypotheses(positions, velocities, horizon, step)
+    for k in range(out.shape[0]):
+        t = (k + 1) * step
+        for j in range(positions.shape[0]):
+            out[k, j, 2], out[k, j, 3] = predicted_position(paths, j, t)
     return out
 
 
