@@ -338,3 +338,21 @@ def test_the_jerk_limit_holds_in_ordinary_driving_and_gives_way_to_an_evasion():
     assert evading.any() and clearance > 0.0
     assert jerk_steps[~evading].max() <= JERK * 0.05 ** 2 + 1e-12
     assert np.abs(np.diff(w)).max() <= ROBUST["max_yaw_acceleration"] * 0.05 + 1e-12
+
+
+def test_an_evasion_keeps_its_own_jerk_limit_when_one_is_set():
+    """evasion_yaw_jerk: the same head-on walker, the evasion's commands changing the yaw acceleration by at
+    most that limit x 50 ms, where the default (none) reverses it at once; the robot still passes clear."""
+    walker = [(1, 10.0, 0.05, 0.3, -0.5, 0.0)]
+    limit = 20.0
+    for evasion_jerk in (0.0, limit):
+        _poses, outputs, clearance = drive_unicycle("robust", (12.0, 0.0), walker, seconds=30.0,
+                                                    evasion_yaw_jerk=evasion_jerk)
+        w = np.array([0.0] + [o.yaw_rate_cmd for o in outputs])
+        jerk_steps = np.abs(np.diff(w, 2))
+        evading = np.array([o.threat_id >= 0 for o in outputs])[1:]
+        assert evading.any() and clearance > 0.0
+        if evasion_jerk > 0.0:
+            assert jerk_steps[evading].max() <= limit * 0.05 ** 2 + 1e-12
+        else:
+            assert jerk_steps[evading].max() > limit * 0.05 ** 2 * 1.5  # unlimited: well past it

@@ -44,6 +44,9 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " the next (and the yaw rate eased into its goal): a turn reversed at once jolts the wheels' torque"
               " through the yaw loop; robust drops it while evading a threat (a late turn there is a collision); the"
               " paper's method has none; 0: no limit", "rad/s³", 0.0, 1e6),
+    ParamSpec("evasion_yaw_jerk", 0.0, "robust: the same limit while evading a threat (steeper than max_yaw_jerk:"
+              " a late turn there is a collision, and a turn reversed at once jolts the wheels); 0: no limit",
+              "rad/s³", 0.0, 1e6),
     ),
     ParamSpec("stuck_time", 8.0, "no progress over this long is reported as stuck (a local minimum)", "s",
               0.1, 1000.0),

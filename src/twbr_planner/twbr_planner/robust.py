@@ -28,6 +28,7 @@ import numpy as np
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_BRAKE_DECELERATION,
+    A_EVASION_YAW_JERK,
     A_MAX_YAW_JERK,
     A_PREDICTION_RANGE,
     A_PREDICTION_RELAXATION_TIME,
@@ -123,8 +124,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
                                            radii, paths)
         if yielding:
             mode = YIELDING
-    # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path the robot turns at once
-    jerk = a[A_MAX_YAW_JERK] if threat < 0 else 0.0
+    # the yaw jerk limit rounds the turns of ordinary driving; out of a threat's path, its own (steeper) limit
+    jerk = a[A_MAX_YAW_JERK] if threat < 0 else a[A_EVASION_YAW_JERK]
     binding = -1
     # the window's rollouts judged its command against every obstacle's motion: the barriers would brake the
     # robot where the window chose to drive on (in a walker's way; kept for the static discs alone, they
