@@ -45,6 +45,21 @@ def test_a_walker_with_nothing_near_its_way_walks_straight_and_a_post_in_its_way
     assert paths[0, :, 1].min() < -0.5 and paths[0, -1, 0] > 2.5
 
 
+def test_a_mover_overlapping_a_static_disc_keeps_its_line():
+    """A moving track inside a wall's disc is no walker keeping its distance (a LiDAR sliver of a disc seen
+    through a gap slides as the robot moves, suite/narrow_passage): the push, exponential in the overlap, would
+    throw it off the disc across the robot's way within a step. It is predicted on its straight line."""
+    cfg = resolve({"method": "robust"})
+    # 0.2 m into a wall disc below it, sliding along the wall at 0.4 m/s; another disc 1 m ahead of it
+    paths = social(cfg, (0.0, 0.0, 0.4, 0.0, 0.3), (0.0, -0.6, 0.0, 0.0, 0.5), (1.0, 0.9, 0.0, 0.0, 0.4),
+                   horizon=3.0)
+    t = PREDICTION_STEP * np.arange(paths.shape[1])
+    assert paths[0, :, 0] == pytest.approx(0.4 * t, abs=1e-12) and np.abs(paths[0, :, 1]).max() < 1e-12
+    # just clear of the wall disc, the same mover is pushed off it (the rule is the overlap, not the nearness)
+    clear = social(cfg, (0.0, 0.0, 0.4, 0.0, 0.3), (0.0, -0.81, 0.0, 0.0, 0.5), horizon=3.0)
+    assert clear[0, -1, 1] > 0.02
+
+
 def test_the_prediction_follows_a_world_walker_round_a_post_where_the_straight_line_does_not():
     """The world's walker (twbr_sim.agents, social force, heading for a far waypoint) passing a post: from its
     state at 1.5 s the prediction stays within 0.1 m of where it walks over the next 4 s (0.07 m when written);

@@ -63,13 +63,20 @@ def predict_paths(positions, velocities, radii, horizon, strength, push_range, r
         speed0 = math.hypot(want_x, want_y)
         paths[j, 0, 0] = x
         paths[j, 0, 1] = y
-        # the static discs it can come near over the horizon (no push from the others)
+        # the static discs it can come near over the horizon (no push from the others); none where it
+        # overlaps one already: that is not a body keeping its distance (a LiDAR sliver of a disc seen
+        # through a gap, a track merging with a wall), and the push, exponential in the overlap, would
+        # fling it off the disc across the robot's way
         n_near = 0
         if strength > 0.0 and speed0 >= MOVING:
             travel = SPEED_CAP * speed0 * horizon + REACH * push_range
             for s in range(n_static):
                 o = static[s]
-                if math.hypot(positions[o, 0] - x, positions[o, 1] - y) - radii[o] - radii[j] <= travel:
+                gap = math.hypot(positions[o, 0] - x, positions[o, 1] - y) - radii[o] - radii[j]
+                if gap < 0.0:
+                    n_near = 0
+                    break
+                if gap <= travel:
                     near[n_near] = o
                     n_near += 1
         if n_near == 0:
