@@ -91,7 +91,10 @@ def test_step_scenario_through_the_runner_meets_the_paper_from_the_bag(tmp_path,
     assert step["final"] == pytest.approx(0.1) and 1.0 <= step["step_time_s"] <= 1.03
     assert step["undershoot"] > 0.005  # rolls back first
     assert step["settle_time_s"] <= 1.5 and step["overshoot_pct"] < 20.0 and step["steady_state_error_pct"] < 2.0
-    assert abs(metrics["pitch_final_rad"]) < 0.005 and metrics["pitch_settle_time_s"] < 4.0
+    # A CI run once settled at 4.54 s (1.95 s here, idle or loaded): say whether cmd_vel went stale meanwhile
+    assert abs(metrics["pitch_final_rad"]) < 0.005 and metrics["pitch_settle_time_s"] < 4.0, {
+        k: metrics.get(k) for k in ("pitch_final_rad", "pitch_settle_time_s", "cmd_vel_stale_samples",
+                                    "lockstep_timeouts", "real_time_factor")}
     assert metrics["max_torque_nm"] < TORQUE_LIMIT and metrics["max_delivered_torque_nm"] < TORQUE_LIMIT
     assert "step" in done.stdout and "settles" in done.stdout
 
