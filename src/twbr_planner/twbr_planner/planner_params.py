@@ -42,7 +42,7 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               low_open=True),
     ParamSpec("max_yaw_jerk", 10.0, "robust, dwa, vo: limit of the yaw acceleration's change from one command to"
               " the next (and the yaw rate eased into its goal): a turn reversed at once jolts the wheels' torque"
-              " through the yaw loop; robust drops it while evading a threat (a late turn there is a collision); the"
+              " through the yaw loop; robust takes evasion_yaw_jerk instead while evading a threat; the"
               " paper's method has none; 0: no limit", "rad/s³", 0.0, 1e6),
     ParamSpec("evasion_yaw_jerk", 0.0, "robust: the same limit while evading a threat (steeper than max_yaw_jerk:"
               " a late turn there is a collision, and a turn reversed at once jolts the wheels); 0: no limit",
