@@ -1,6 +1,13 @@
 """sim_node's stepping decisions, without ROS (twbr_sim.stepping)."""
 
-from twbr_sim.stepping import LockstepExchange, Missing, Publications, RealtimeTicks, TimeoutAction
+from twbr_sim.stepping import (
+    SCRIPT_QUIET_NS,
+    LockstepExchange,
+    Missing,
+    Publications,
+    RealtimeTicks,
+    TimeoutAction,
+)
 
 STATE_NS = 5_000_000  # one state every 5 ms
 
@@ -45,6 +52,25 @@ def test_where_a_scripted_profile_changes_its_new_command_is_awaited_too():
     ex.offered(201 * STATE_NS, 201)  # between changes only the controller is awaited
     ex.command(201 * STATE_NS)
     assert ex.answered()
+
+
+def test_a_quiet_player_is_awaited_again_before_the_controllers_cmd_vel_goes_stale():
+    """The step test once settled in 4.5 s, not 2: the player's 20 Hz keep-alives could starve past the
+    controller's 0.5 s cmd_vel_timeout while the simulator stepped on with the controller alone."""
+    ex = LockstepExchange()
+    command = (0.1, 0.0)
+    ex.offered(200 * STATE_NS, 200, expected=command)
+    ex.scripted(command)
+    assert not ex.script_quiet(command, 200 * STATE_NS + SCRIPT_QUIET_NS - 1)
+    assert ex.script_quiet(command, 200 * STATE_NS + SCRIPT_QUIET_NS)
+    assert ex.script_quiet((0.2, 0.0), 201 * STATE_NS)  # another value was never heard
+    # a keep-alive awaited in vain (the player died): one timeout, then the clock runs on without it
+    ex.offered(300 * STATE_NS, 300, expected=command)
+    ex.command(300 * STATE_NS)
+    assert ex.missing() is Missing.SCRIPTED and ex.timed_out() is TimeoutAction.STEP_ON
+    assert not ex.script_quiet(command, 400 * STATE_NS)
+    ex.scripted(command)  # heard again: awaited again once it goes quiet
+    assert ex.script_quiet(command, 300 * STATE_NS + SCRIPT_QUIET_NS)
 
 
 def test_nobody_answering_t0_holds_it_but_a_missing_answer_later_is_a_timeout():

@@ -247,13 +247,15 @@ class SimNode(Node):
         if self.pub_truth is not None and not again:
             self.pub_truth.publish(self.truth_message())
         # A new state: its command is awaited (lockstep) and its latency measured (both); and the profile's
-        # command where it changes at a state the player sees (one with /clock: it plays on /clock's time), and
-        # at the first state, held until the player is heard (it may join after the clock starts).
+        # command where it changes at a state the player sees (one with /clock: it plays on /clock's time), where
+        # the player has gone quiet (starved: its keep-alives keep the controller's cmd_vel fresh), and at the
+        # first state, held until the player is heard (it may join after the clock starts).
         expected = None
         if self._script is not None and (clock_due or again):
             v, w = command_at(self._script, stamp_seconds_of(now_ns))
             value = (float(v), float(w))
-            expected = value if again or self._script_last is None or value != self._script_last else None
+            changed = again or self._script_last is None or value != self._script_last
+            expected = value if changed or self.exchange.script_quiet(value, now_ns) else None
             self._script_last = value
         self.exchange.offered(now_ns, self.sim.step_count, expected)
 

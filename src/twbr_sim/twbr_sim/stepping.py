@@ -25,11 +25,17 @@ class TimeoutAction(Enum):
     STEP_ON = "step_on"  # a lockstep timeout: counted, and the simulator steps without the answer
 
 
+# A scripted profile's command not heard for this long [s of sim time] is awaited again at the next state
+# with a clock: half the controller's default cmd_vel_timeout, so a player starved on a loaded host never
+# lets the controller's command go stale (it re-publishes at 20 Hz of /clock; idle, it is never awaited).
+SCRIPT_QUIET_NS = 250_000_000
+
+
 class LockstepExchange:
     """The answers the pending state awaits: the command stamped with it, and at every `planner_every`-th
     physics step the planner's output stamped with it too (0: the planner is not waited for), and where a
-    scripted cmd_vel profile changes, the new command seen on cmd_vel (`expected`: unstamped, it is known
-    by its value).
+    scripted cmd_vel profile changes, or has not been heard for SCRIPT_QUIET_NS, the profile's command seen
+    on cmd_vel (`expected`: unstamped, it is known by its value).
 
     Only an answer stamped with the pending state counts: a late one, or one from a stray publisher,
     never stands in for the answer to the state the simulator holds.
@@ -44,6 +50,8 @@ class LockstepExchange:
         self._planner_ns: int | None = None
         self.expected: tuple[float, float] | None = None
         self._expected_seen = False
+        self._heard: tuple[tuple[float, float], int] | None = None
+        self._player_gone = False  # a keep-alive awaited in vain: not awaited again until the player is heard
 
     def offered(self, stamp_ns: int, step_count: int, expected: tuple[float, float] | None = None) -> None:
         """A state stamped `stamp_ns` at physics step `step_count` went out: its answers are awaited, and
@@ -55,9 +63,20 @@ class LockstepExchange:
         self._expected_seen = False
 
     def scripted(self, command: tuple[float, float]) -> None:
-        """A cmd_vel (v, omega) seen: the awaited one if it is the profile's new value."""
+        """A cmd_vel (v, omega) seen: the awaited one if it is the profile's value."""
         if self.expected is not None and command == self.expected:
             self._expected_seen = True
+        if self.pending_ns is not None:
+            self._heard = (command, self.pending_ns)
+        self._player_gone = False
+
+    def script_quiet(self, command: tuple[float, float], stamp_ns: int) -> bool:
+        """True when `command` was last heard SCRIPT_QUIET_NS or more before the state stamped `stamp_ns`
+        (heard while that earlier state was pending), or never; false once a keep-alive was awaited in vain, so
+        a player that died costs one lockstep timeout, not one per clock."""
+        if self._player_gone:
+            return False
+        return self._heard is None or self._heard[0] != command or stamp_ns - self._heard[1] >= SCRIPT_QUIET_NS
 
     def command(self, stamp_ns: int) -> bool:
         """An admitted command stamped `stamp_ns`; true when it is the first answer to the pending state."""
@@ -88,6 +107,8 @@ class LockstepExchange:
         """The wall-clock wait ran out without the answers: what to do."""
         if self.waiting_first and self._step_count == 0:
             return TimeoutAction.OFFER_AGAIN
+        if self.command_matched and self.expected is not None and not self._expected_seen:
+            self._player_gone = True
         return TimeoutAction.STEP_ON
 
     def stepping(self) -> None:
