@@ -51,9 +51,10 @@ SIM_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("lockstep_planner_rate", 0.0, "lockstep: also hold every 1/rate s of sim time until planner_state"
               " stamped with that state arrives (the runner sets it to the planner's rate; 0: do not wait)", "Hz",
               0.0, 1000.0),
-    ParamSpec("lockstep_commands", False, "lockstep: where the scenario's scripted cmd_vel profile changes, also hold"
-              " the state until the new command (a Twist) is seen on cmd_vel: a command_player starved on a loaded"
-              " host still steps the robot at the profile's time (the runner sets it for scripted scenarios)"),
+    ParamSpec("lockstep_commands", False, "lockstep: where the scenario's scripted cmd_vel profile changes, or its"
+              " command has not been heard for 0.25 s, also hold the state until the command (a Twist) is seen on"
+              " cmd_vel: a command_player starved on a loaded host still steps the robot at the profile's time and"
+              " keeps the controller's cmd_vel fresh (the runner sets it for scripted scenarios)"),
     ParamSpec("wait_for_subscribers", 0, "publish nothing until odom has this many matched subscriptions (a"
               " runner sets it so that its recorder and controller both see t = 0)", "", 0, 1000),
     ParamSpec("command_timeout", 0.1, "a wheel_torque_cmd older than this (sim time) is stale: zero torque", "s",
