@@ -170,6 +170,18 @@ def ros(ros_domain: int):
         def spin_for(self, seconds: float) -> None:
             self.spin_until(lambda: False, seconds)
 
+        def spin_until_quiet(self, count: Callable[[], int], quiet: float = 1.0, timeout: float = 10.0) -> None:
+            """Spin until count() (messages received) has not grown for `quiet` seconds: a node outside the
+            lockstep, starved on a loaded host, may still be answering the last inputs when the run ends."""
+            last = [count(), time.monotonic()]
+
+            def settled() -> bool:
+                if count() != last[0]:
+                    last[:] = [count(), time.monotonic()]
+                return time.monotonic() - last[1] >= quiet
+
+            self.spin_until(settled, timeout)
+
     yield Ros()
     executor.shutdown()
     node.destroy_node()
