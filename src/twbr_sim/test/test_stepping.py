@@ -68,6 +68,7 @@ def test_a_quiet_player_is_awaited_again_before_the_controllers_cmd_vel_goes_sta
     ex.offered(300 * STATE_NS, 300, expected=command)
     ex.command(300 * STATE_NS)
     assert ex.missing() is Missing.SCRIPTED and ex.timed_out() is TimeoutAction.STEP_ON
+    ex.stepping()  # as sim_node steps on after the timeout
     assert not ex.script_quiet(command, 400 * STATE_NS)
     ex.scripted(command)  # heard again: awaited again once it goes quiet
     assert ex.script_quiet(command, 300 * STATE_NS + SCRIPT_QUIET_NS)

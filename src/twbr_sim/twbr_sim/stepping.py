@@ -107,13 +107,14 @@ class LockstepExchange:
         """The wall-clock wait ran out without the answers: what to do."""
         if self.waiting_first and self._step_count == 0:
             return TimeoutAction.OFFER_AGAIN
-        if self.command_matched and self.expected is not None and not self._expected_seen:
-            self._player_gone = True
         return TimeoutAction.STEP_ON
 
     def stepping(self) -> None:
-        """The simulator steps past the pending state: from now on a missing answer is a timeout."""
+        """The simulator steps past the pending state: from now on a missing answer is a timeout, and a
+        scripted command it stepped without is not awaited again until the player is heard."""
         self.waiting_first = False
+        if self.missing() is Missing.SCRIPTED:
+            self._player_gone = True
 
 
 class RealtimeTicks:
