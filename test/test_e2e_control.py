@@ -390,7 +390,13 @@ def test_a_player_late_with_its_profiles_step_still_steps_the_robot_on_time(laun
     """A scripted profile's player starved on a loaded host (here it sends the 0.1 m/s step 0.3 s of wall time
     after the /clock that called for it). Before (`lockstep_commands` false, the `before` case): the simulator
     ran on with the controller alone and the step reached the controller more than 0.1 s late in sim time, here
-    not within the 2 s run (CI saw 1.1 and 1.22 s for 1.0 s); now the state of the change waits for it."""
+    not within the 2 s run (CI saw 1.1 and 1.22 s for 1.0 s); now the state of the change waits for it.
+
+    What the simulator waits for is its own copy of the Twist: the controller hears the same sample on its own
+    subscription and applies it from the first state after its arrival, so a player preempted between its two
+    deliveries still lets the controller apply the step a few states late (CI saw 1.015 s: three states). The
+    bound here, 10 states (0.05 s), is that race's; the player's own lateness, 0.3 s of wall time, is waited
+    out."""
     player = NodeProcess([sys.executable, "-c", LATE_PLAYER], ros_env, tmp_path, "late_player")
     refs: list[tuple[float, float]] = []
     ros.node.create_subscription(ControllerState, "controller_state",
@@ -409,7 +415,7 @@ def test_a_player_late_with_its_profiles_step_still_steps_the_robot_on_time(laun
     stepped = [t for t, v in refs if v == pytest.approx(0.1)]
     assert refs and refs[-1][0] >= 1.9, refs[-3:]  # the whole run, 2 s
     if wait:
-        assert stepped and 1.0 <= stepped[0] <= 1.01, stepped[:1]
+        assert stepped and 1.0 <= stepped[0] <= 1.05, stepped[:1]
         assert "lockstep timeout at" not in sim.output and ", 0 lockstep timeouts;" in sim.output, sim.output
     else:
         assert not stepped or stepped[0] > 1.1, stepped[0]  # late, or not within the run at all
