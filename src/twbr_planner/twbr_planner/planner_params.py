@@ -123,6 +123,9 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " distance it walks (it may turn, slow down or stop)", "", 0.0, 10.0),
     ParamSpec("yield_margin", 0.1, "robust: clearance the look-ahead keeps from the predicted discs", "m", 0.0,
               10.0),
+    ParamSpec("yield_discount", 3.0, "robust: once the command's look-ahead conflicts, the candidate that overlaps"
+              " the predicted discs least is taken, an overlap t seconds ahead weighted by exp(-t / yield_discount)"
+              " (a nearer one is surer and sooner)", "s", 0.1, 1000.0),
     ParamSpec("window_horizon", 3.0, "robust: while a moving obstacle can come near within this, the field's"
               " direction is driven by a dynamic window of rollouts this long (window.py); 0 turns it off", "s",
               0.0, 60.0),
