@@ -156,7 +156,8 @@ def test_the_readme_s_people_figures_are_the_study_s():
     text = " ".join((ROOT / "README.md").read_text().split())
     people = _result("people.json")
     found = re.search(r"Among people \(issue 35's layouts, ([0-9]+) seeds[^)]*\) it is not there yet: (.*?), where "
-                      r"the dynamic window peer reaches ([0-9.]+) % on clutter_movers", text)
+                      r"the dynamic window peer reaches ([0-9.]+) % on clutter_movers and ([0-9.]+) % on reactive_crowd",
+                      text)
     assert found, "README.md lost its sentence on the people layouts"
     assert int(found[1]) == people["runs_per_cell"]
     pairs = re.findall(r"([a-z_]+) ([0-9.]+) %", found[2])
@@ -164,9 +165,10 @@ def test_the_readme_s_people_figures_are_the_study_s():
     for layout, rate in pairs:
         assert float(rate) == round(100 * people["layouts"][layout]["robust"]["success_rate"], 1), layout
     assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
+    assert float(found[4]) == round(100 * people["layouts"]["reactive_crowd"]["dwa"]["success_rate"], 1)
     # and the same layouts over the suite study's seeds, in the same order
     suite = _result("suite.json")
-    longer = re.search(r"on clutter_movers \(([0-9]+) seeds: ([0-9., ]+) %", text)
+    longer = re.search(r"on reactive_crowd \(([0-9]+) seeds: ([0-9., ]+) %", text)
     assert longer, "README.md lost the suite study's figures beside the people figures"
     assert int(longer[1]) == suite["runs_per_cell"]
     rates = [float(r) for r in longer[2].split(", ")]
