@@ -13,16 +13,14 @@ max_yaw_acceleration), so a stop takes as long as the robot takes to stop.
 
 The field's command is kept while its rollout stays `yield_margin` clear of every moving obstacle's
 predicted disc over the horizon (static ones are the field's and the safety filter's). Otherwise
-candidate commands (forward, standing still, backing away, each turning or not) are rolled out and the
-one that overlaps the predicted discs least is taken: how deep each rollout goes into each disc, summed
-over the horizon, an overlap t seconds ahead weighted by exp(-t / yield_discount) (a nearer one is surer,
-the disc having grown less, and leaves less time to change course). Among equals (none overlaps) the one
-that ends nearest the target: the robot waits when going on meets a person, steps out of a lane a faster
-walker comes down, and backs out of a passage when standing in it would. Static obstacles are in the same
-rollouts, undiscounted by growth, so it does not back into a wall. Before, the candidate whose first
-conflict came latest was taken: running ahead of a walker who is faster delays the conflict and stays in
-its lane, stepping aside meets its disc sooner and leaves it (suite/overtaken_by_crowd: 24 avoidable
-collisions in 300 runs, 1 with the overlap; benchmarks/HISTORY.md).
+candidate commands (forward, standing still, backing away, each turning or not) are rolled out against
+every obstacle, static ones too (backing away from a person must not back into a wall), and the one that
+overlaps the predicted discs least is taken: how deep it goes into each, summed over the horizon, an
+overlap t seconds ahead weighted by exp(-t / yield_discount), since a nearer one is surer (its disc has
+grown less) and leaves less time to change course; among equals, the one that ends nearest the target. So
+the robot waits when going on meets a person, steps out of the lane of a walker faster than itself, and
+backs out of a passage when standing in it would. Ranked by the latest first conflict instead, it ran on
+ahead of faster walkers, in their lane (benchmarks/HISTORY.md, eighteenth session).
 Compiled, like the rest of the method; each constant below is a resolution, not a tuning.
 """
 
