@@ -75,6 +75,7 @@ ABLATIONS: dict[str, dict[str, Any]] = {
     "no safety filter": {"safety_filter": False},
     "no yielding": {"yield_horizon": 0.0},
     "no dynamic window": {"window_horizon": 0.0},
+    "no prediction": {"prediction_strength": 0.0},  # movers on their straight lines only
 }
 
 
