@@ -1,5 +1,6 @@
 """Yielding (the robust method's look-ahead over predicted motion): its rules, and a passage it waits at."""
 
+import contextlib
 import math
 
 import numpy as np
@@ -21,6 +22,20 @@ def lines(positions, velocities, radii, horizon=10.0):
 def scene(positions, velocities, radii):
     """yield_command's obstacles: (positions, velocities, radii, paths) on their straight lines."""
     return positions, velocities, radii, predict_paths(positions, velocities, radii, 10.0, 0.0, 1.0, 1.0)
+
+
+@contextlib.contextmanager
+def one_thread():
+    """The batch engine on one thread: the other pytest worker's graph keeps its core (its lockstep waits on
+    the wall clock), and the runs are the same on any number of threads."""
+    import numba
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(threads)
 
 
 def settings(**overrides):
@@ -88,12 +103,14 @@ def test_a_nearer_overlap_weighs_more_and_a_clear_rollout_none():
 
 def test_overtaken_by_a_crowd_it_steps_out_of_their_lane():
     """suite/overtaken_by_crowd (three walkers faster than the robot come up from behind on nearby lines), seeds
-    1-100 on the truth: the latest-first-conflict rule had 10 avoidable collisions here, the overlap none."""
+    1-30 on the truth: the latest-first-conflict rule had 4 avoidable collisions here (seeds 10, 21, 26, 27;
+    10 in seeds 1-100), the overlap none (none in 1-100)."""
     from twbr_batch.suite import run_rows
     from twbr_sim.scenario_files import find_scenario
 
-    rows = run_rows(find_scenario("suite/overtaken_by_crowd"), "robust", {"method": "robust", "perception": "truth"},
-                    list(range(1, 101)))
+    with one_thread():
+        rows = run_rows(find_scenario("suite/overtaken_by_crowd"), "robust",
+                        {"method": "robust", "perception": "truth"}, list(range(1, 31)))
     avoidable = [r.seed for r in rows if r.outcome == "collision_avoidable"]
     assert len(avoidable) <= 1, avoidable
 
@@ -125,9 +142,10 @@ def test_it_waits_at_a_passage_a_cart_is_coming_through():
 
     seeds = list(range(1, 61))
     path = find_scenario("suite/narrow_passage")
-    with_look_ahead = run_rows(path, "robust", {"method": "robust", "window_horizon": 0.0, "perception": "truth"},
-                               seeds)
-    without = run_rows(path, "no yielding", {"method": "robust", "yield_horizon": 0.0, "window_horizon": 0.0,
-                                             "perception": "truth"}, seeds)
+    with one_thread():
+        with_look_ahead = run_rows(path, "robust", {"method": "robust", "window_horizon": 0.0,
+                                                    "perception": "truth"}, seeds)
+        without = run_rows(path, "no yielding", {"method": "robust", "yield_horizon": 0.0, "window_horizon": 0.0,
+                                                 "perception": "truth"}, seeds)
     collided = [sum(r.collisions > 0 for r in rows) for rows in (with_look_ahead, without)]
     assert collided[1] >= 12 and collided[0] <= 0.5 * collided[1]
