@@ -42,16 +42,16 @@ def settings(**overrides):
     return settings_vector(resolve({"method": "robust", **overrides}))
 
 
-def conflict(a, obstacle, v0=0.6, v_goal=0.6, heading=math.nan, moving_only=False):
+def conflict(a, obstacle, v0=0.6, v_goal=0.6, heading=math.nan):
     positions, velocities, radii = (np.array([obstacle[:2]], dtype=float), np.array([obstacle[2:4]], dtype=float),
                                     np.array([obstacle[4]], dtype=float))
     return yielding.first_conflict(a, 0.0, 0.0, 0.0, v0, 0.0, v_goal, 0.0, heading,
-                                   *lines(positions, velocities, radii), 5.0, moving_only)[0]
+                                   *lines(positions, velocities, radii), 5.0)[0]
 
 
 def test_a_rollout_meets_a_head_on_obstacle_when_they_touch_and_an_empty_world_never():
     a = settings(yield_uncertainty=0.0)
-    assert yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.6, 0.0, 0.6, 0.0, math.nan, *NO_OBSTACLE, 5.0, False)[0] == 5.0
+    assert yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.6, 0.0, 0.6, 0.0, math.nan, *NO_OBSTACLE, 5.0)[0] == 5.0
     # closing at 1.1 m/s from 4 m, touching at 0.3 + 0.3 + 0.1 (margin): (4 - 0.7) / 1.1 = 3.0 s
     assert conflict(a, (4.0, 0.0, -0.5, 0.0, 0.3)) == pytest.approx(3.0, abs=0.26)
 
@@ -81,7 +81,7 @@ def test_running_ahead_of_a_faster_walker_conflicts_later_but_overlaps_more_than
         conflicts, overlaps = [], []
         for v_goal, w_goal, heading in (ahead, aside):
             rollout = (a, 0.0, 0.0, 0.0, 0.3, 0.0, v_goal, w_goal, heading, *behind(back, speed), 6.5)
-            conflicts.append(yielding.first_conflict(*rollout, False)[0])
+            conflicts.append(yielding.first_conflict(*rollout)[0])
             overlaps.append(yielding.overlap(*rollout)[0])
         assert conflicts[0] > conflicts[1], (back, speed, conflicts)
         assert overlaps[0] > 2.0 * overlaps[1], (back, speed, overlaps)

@@ -77,13 +77,12 @@ def predicted_reach(a, velocities, radii, j, t):
 
 
 @kernel
-def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon,
-                   moving_only):
-    """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of an
+def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon):
+    """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of a moving
     obstacle's predicted disc (on its line or its predicted path, `samples`: prediction.hypotheses at
-    ROLLOUT_STEP over the horizon; grown by the uncertainty; only the moving ones when moving_only);
-    `horizon` when it never does; and where the rollout is then. A finite `heading` [rad] steers to it
-    instead of holding w_goal."""
+    ROLLOUT_STEP over the horizon; grown by the uncertainty); `horizon` when it never does; and where the
+    rollout is then. A finite `heading` [rad] steers to it instead of holding w_goal. Static obstacles are
+    the field's and the safety filter's: they never start yielding (the candidates' `overlap` counts them)."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
@@ -93,7 +92,7 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, veloc
         for j in range(radii.shape[0]):
             vx = velocities[j, 0]
             vy = velocities[j, 1]
-            if moving_only and vx * vx + vy * vy < MOVING * MOVING:
+            if vx * vx + vy * vy < MOVING * MOVING:
                 continue
             reach = predicted_reach(a, velocities, radii, j, t)
             if nearer_distance2(samples, k - 1, j, x, y) < reach * reach:
@@ -103,7 +102,7 @@ def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, veloc
 
 @kernel
 def overlap(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon):
-    """[m s] how deep and how long a rollout (as first_conflict's, against every obstacle) goes into the
+    """[m s] how deep and how long a rollout (as first_conflict's, but against every obstacle) goes into the
     predicted discs, each step's depth weighted by exp(-t / yield_discount); and where the rollout ends."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
@@ -112,11 +111,12 @@ def overlap(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, 
     for k in range(1, steps + 1):
         x, y, yaw, v, w = rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading)
         t = k * ROLLOUT_STEP
+        weight = math.exp(-t / a[A_YIELD_DISCOUNT])
         for j in range(radii.shape[0]):
             reach = predicted_reach(a, velocities, radii, j, t)
             d2 = nearer_distance2(samples, k - 1, j, x, y)
             if d2 < reach * reach:
-                total += (reach - math.sqrt(d2)) * ROLLOUT_STEP * math.exp(-t / a[A_YIELD_DISCOUNT])
+                total += (reach - math.sqrt(d2)) * ROLLOUT_STEP * weight
     return total, x, y
 
 
@@ -157,7 +157,7 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
     w0 = m[R_LAST_OMEGA]
     samples = hypotheses(positions, velocities, paths, horizon, ROLLOUT_STEP)
     if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, radii,
-                      horizon, True)[0] >= horizon:
+                      horizon)[0] >= horizon:
         return v_nominal, omega_nominal, False  # no moving obstacle in the way: the field's command stands
     # the rest is judged against every obstacle: backing away from a person must not back into a wall
     best, ex, ey = overlap(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, radii,
