@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from twbr_common.geometry import wrap_angle
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel
 from twbr_planner.apf import (
     A_BRAKE_DECELERATION,
     A_DWA_CLEARANCE_CAP,
@@ -65,6 +65,18 @@ OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s ap
 ROLLOUT_STEP = 0.2  # [s]
 
 
+@inline_kernel
+def drive(a, x, y, yaw, v, w, v_goal, w_goal, dt):
+    """(x, y, yaw, v, w) after dt [s] towards (v_goal, w_goal) at the acceleration limits (the speed as
+    ramp_speed, the yaw rate within max_yaw_acceleration): every rollout's robot, the window's and the
+    yielding's alike."""
+    v = ramp_speed(a, v, v_goal, dt)
+    dw = a[A_MAX_YAW_ACCELERATION] * dt
+    w = min(max(w_goal, w - dw), w + dw)
+    yaw += w * dt
+    return x + v * math.cos(yaw) * dt, y + v * math.sin(yaw) * dt, yaw, v, w
+
+
 @kernel
 def candidate(a, v_top, i, k):
     """The grid's (v, omega) number (i, k): forward speeds from 0 to v_top [m/s], yaw rates across
@@ -102,12 +114,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margi
     contact = math.inf
     robot_radius = a[A_ROBOT_RADIUS]
     for k in range(1, steps + 1):
-        v = ramp_speed(a, v, v_goal, ROLLOUT_STEP)
-        dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
-        w = min(max(w_goal, w - dw), w + dw)
-        yaw += w * ROLLOUT_STEP
-        x += v * math.cos(yaw) * ROLLOUT_STEP
-        y += v * math.sin(yaw) * ROLLOUT_STEP
+        x, y, yaw, v, w = drive(a, x, y, yaw, v, w, v_goal, w_goal, ROLLOUT_STEP)
         t = k * ROLLOUT_STEP
         for j in range(radii.shape[0]):
             gap = math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) - radii[j] - robot_radius

@@ -31,7 +31,6 @@ import math
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_MAX_YAW_ACCELERATION,
     A_MAX_YAW_RATE,
     A_ROBOT_RADIUS,
     A_V_MAX,
@@ -41,8 +40,8 @@ from twbr_planner.apf import (
     A_YIELD_UNCERTAINTY,
     R_LAST_OMEGA,
     R_LAST_V,
-    ramp_speed,
 )
+from twbr_planner.dwa import drive
 from twbr_planner.prediction import MOVING, hypotheses, nearer_distance2
 
 ROLLOUT_STEP = 0.25  # [s]
@@ -58,14 +57,14 @@ OMEGA_WEIGHT = 0.1  # [m s^2] among equally safe candidates: a yaw-rate change a
 def rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading):
     """(x, y, yaw, v, w) one ROLLOUT_STEP on towards (v_goal, w_goal) at the acceleration limits; a finite
     `heading` [rad] steers to it instead of holding w_goal."""
-    v = ramp_speed(a, v, v_goal, ROLLOUT_STEP)
-    target_w = w_goal
-    if not math.isnan(heading):
-        target_w = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
-    dw = a[A_MAX_YAW_ACCELERATION] * ROLLOUT_STEP
-    w = min(max(target_w, w - dw), w + dw)
-    yaw += w * ROLLOUT_STEP
-    return x + v * math.cos(yaw) * ROLLOUT_STEP, y + v * math.sin(yaw) * ROLLOUT_STEP, yaw, v, w
+    return drive(a, x, y, yaw, v, w, v_goal, w_goal if math.isnan(heading) else steer_to(a, yaw, heading),
+                 ROLLOUT_STEP)
+
+
+@kernel
+def steer_to(a, yaw, heading):
+    """[rad/s] the yaw rate a candidate steering to `heading` [rad] asks for, within max_yaw_rate."""
+    return min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
 
 
 @kernel
@@ -175,7 +174,7 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
                     cw = a[A_MAX_YAW_RATE] * (2.0 * k / (YAW_RATES - 1) - 1.0)
                 else:
                     heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
-                    cw = min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
+                    cw = steer_to(a, yaw, heading)
                 depth, ex, ey = overlap(a, x, y, yaw, v0, w0, cv, cw, heading, samples, velocities, radii,
                                         horizon)
                 # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
