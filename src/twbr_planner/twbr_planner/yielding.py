@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 
 from twbr_common.geometry import wrap_angle
-from twbr_common.jit import kernel
+from twbr_common.jit import inline_kernel, kernel
 from twbr_planner.apf import (
     A_MAX_YAW_RATE,
     A_ROBOT_RADIUS,
@@ -61,7 +61,7 @@ def rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading):
                  ROLLOUT_STEP)
 
 
-@kernel
+@inline_kernel
 def steer_to(a, yaw, heading):
     """[rad/s] the yaw rate a candidate steering to `heading` [rad] asks for, within max_yaw_rate."""
     return min(max(STEER_GAIN * wrap_angle(heading - yaw), -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
