@@ -87,8 +87,9 @@ N_SETTINGS = len(SETTINGS_LAYOUT)
 # its beams saw it [s after the scan's first beam]: a person walks 5 cm in a 10 Hz scanner's turn, and
 # whether it is clipped (1): a closer return right beside either end, so what shows may be part of it
 # only and its fitted centre is off towards the part that shows; its points (rows lo..hi-1 of detect's
-# points), and whether they lie on a surface an earlier scan saw (still: surfaces.py marks it).
-DISC_LAYOUT = Layout(("x", "y", "radius", "wall", "t", "clipped", "lo", "hi", "still"))
+# points), whether they lie on a surface an earlier scan saw (still: surfaces.py marks it), and whether
+# its centre is a circle's fitted to its points (1), not guessed from the near side it shows (0).
+DISC_LAYOUT = Layout(("x", "y", "radius", "wall", "t", "clipped", "lo", "hi", "still", "fitted"))
 DC_X = DISC_LAYOUT["x"]
 DC_Y = DISC_LAYOUT["y"]
 DC_RADIUS = DISC_LAYOUT["radius"]
@@ -98,6 +99,7 @@ DC_CLIPPED = DISC_LAYOUT["clipped"]
 DC_LO = DISC_LAYOUT["lo"]
 DC_HI = DISC_LAYOUT["hi"]
 DC_STILL = DISC_LAYOUT["still"]
+DC_FITTED = DISC_LAYOUT["fitted"]
 N_DISC = len(DISC_LAYOUT)
 
 
@@ -320,7 +322,7 @@ def _clipped(ranges, first, beams, lo, hi, points, scanner_x, scanner_y):
 
 
 @kernel
-def _put_disc(discs, n, x, y, radius, wall, seen, clipped, lo, hi):
+def _put_disc(discs, n, x, y, radius, wall, seen, clipped, lo, hi, fitted):
     """Row n of `discs` (DISC_LAYOUT), not still until surfaces.py says so."""
     discs[n, DC_LO] = lo
     discs[n, DC_HI] = hi
@@ -331,6 +333,7 @@ def _put_disc(discs, n, x, y, radius, wall, seen, clipped, lo, hi):
     discs[n, DC_WALL] = wall
     discs[n, DC_T] = seen
     discs[n, DC_CLIPPED] = clipped
+    discs[n, DC_FITTED] = fitted
 
 
 @kernel
@@ -354,18 +357,18 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             # a sane fit: a radius of the segment's size, its centre beyond the points seen from the scanner
             if (fr <= 1.5 * half + 0.05 and fr >= 0.5 * half
                     and math.hypot(fx - scanner_x, fy - scanner_y) > math.hypot(cx - scanner_x, cy - scanner_y)):
-                _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped, lo, hi)
+                _put_disc(discs, n, fx, fy, max(fr, s[DS_MIN_RADIUS]), 0.0, seen, clipped, lo, hi, 1.0)
             elif _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a short arc of a large disc
-                _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi)  # (partly hidden, or seen end on)
+                _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi, 1.0)  # (partly hidden, or seen end on)
             else:  # the near side of a disc of the segment's width
                 d = math.hypot(cx - scanner_x, cy - scanner_y)
                 _put_disc(discs, n, cx + half * (cx - scanner_x) / d, cy + half * (cy - scanner_y) / d, half, 0.0,
-                          seen, clipped, lo, hi)
+                          seen, clipped, lo, hi, 0.0)
             n += 1
             continue
         fx, fy, fr = _circle_fit(points, lo, hi)
         if _on_arc(s, points, lo, hi, fx, fy, fr, scanner_x, scanner_y):  # a large disc
-            _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi)
+            _put_disc(discs, n, fx, fy, fr, 0.0, seen, clipped, lo, hi, 1.0)
             n += 1
             continue
         pieces = math.ceil(extent / s[DS_CHAIN_SPACING])
@@ -392,7 +395,7 @@ def fit_discs(s, points, times, starts, count, scanner_x, scanner_y, discs, rang
             for i in range(a, b):
                 reach2 = max(reach2, (points[i, 0] - cx) ** 2 + (points[i, 1] - cy) ** 2)
             reach = math.sqrt(reach2)
-            _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped, a, b)
+            _put_disc(discs, n, cx, cy, max(reach, s[DS_MIN_RADIUS]), 1.0, seen, clipped, a, b, 0.0)
             n += 1
     return n
 

@@ -7,7 +7,10 @@ the filter's velocity of a post seen from a moving robot is noise, and a planner
 walked. A disc partly hidden behind a nearer one (detection's DC_CLIPPED) moves its track's position but
 not its velocity: its centre slides with the edge of the shadow as the robot drives past (0.4-0.7 m/s in
 the suite's static clutter, where the planner then drove among the posts as among people), and a track
-coasting behind it would carry that speed on (benchmarks/HISTORY.md, thirteenth session).
+coasting behind it would carry that speed on (benchmarks/HISTORY.md, thirteenth session). A clipped disc
+as large as its track's body (`whole_radius` of the radius its unclipped sightings gave) is whole: the
+nearer object only stands beside it in the scan, as the posts beside a walker in clutter do, and the
+walker's velocity would otherwise freeze for as long as it walks among them (twentieth session).
 
 A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
 closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
@@ -39,7 +42,7 @@ from twbr_common.jit import kernel
 from twbr_common.layout import Layout
 from twbr_common.params import ParamSpec
 from twbr_tracker.assignment import assign
-from twbr_tracker.detection import DC_CLIPPED, DC_RADIUS, DC_STILL, DC_T, DC_WALL, DC_X, DC_Y
+from twbr_tracker.detection import DC_CLIPPED, DC_FITTED, DC_RADIUS, DC_STILL, DC_T, DC_WALL, DC_X, DC_Y
 
 TRACK_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("tracking.gate", 0.8, "a disc farther than this from a track's prediction is not its own", "m",
@@ -66,11 +69,14 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
               " last match, and a new disc within its gate takes it back with its id (0: off)", "s", 0.0, 600.0),
     ParamSpec("tracking.occlusion_margin", 0.2, "a beam shorter than a track's near side by this much passes in"
               " front of it", "m", 0.0, 5.0),
+    ParamSpec("tracking.whole_radius", 0.85, "a clipped disc at least this fraction of its track's radius (learnt"
+              " from unclipped sightings) shows the whole body: it moves the velocity as an unclipped one does"
+              " (above 1: never)", "", 0.0, 10.0),
 )
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
                           "initial_speed_std", "moving_speed", "max_tracks", "max_coast", "max_gate",
-                          "clipped_noise", "occlusion_margin", "reidentify_time"))
+                          "clipped_noise", "occlusion_margin", "reidentify_time", "whole_radius"))
 TS_GATE = SETTINGS_LAYOUT["gate"]
 TS_CONFIRM_HITS = SETTINGS_LAYOUT["confirm_hits"]
 TS_MAX_MISSES = SETTINGS_LAYOUT["max_misses"]
@@ -84,10 +90,11 @@ TS_MAX_GATE = SETTINGS_LAYOUT["max_gate"]
 TS_CLIPPED_NOISE = SETTINGS_LAYOUT["clipped_noise"]
 TS_OCCLUSION_MARGIN = SETTINGS_LAYOUT["occlusion_margin"]
 TS_REIDENTIFY_TIME = SETTINGS_LAYOUT["reidentify_time"]
+TS_WHOLE_RADIUS = SETTINGS_LAYOUT["whole_radius"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 
 TRACK_LAYOUT = Layout(("id", "x", "y", "vx", "vy", "radius", "hits", "misses", "confirmed", "moving", "t",
-                       "born", "seen", "occluded", "lost"))
+                       "born", "seen", "occluded", "lost", "whole"))
 TR_ID = TRACK_LAYOUT["id"]
 TR_X = TRACK_LAYOUT["x"]
 TR_Y = TRACK_LAYOUT["y"]
@@ -103,6 +110,7 @@ TR_BORN = TRACK_LAYOUT["born"]  # [s]
 TR_SEEN = TRACK_LAYOUT["seen"]  # [s] its last match
 TR_OCCLUDED = TRACK_LAYOUT["occluded"]  # 1: hidden behind closer returns in the last scan
 TR_LOST = TRACK_LAYOUT["lost"]  # 1: dropped, unpublished, kept for re-identification
+TR_WHOLE = TRACK_LAYOUT["whole"]  # 1: seen unclipped at least once (its radius is its own)
 N_TRACK = len(TRACK_LAYOUT)
 
 
@@ -176,13 +184,17 @@ def kalman_update(track, cov, zx, zy, variance, velocity_too=True):
 
 
 @kernel
-def _update(s, track, cov, zx, zy, radius, clipped):
+def _update(s, track, cov, zx, zy, radius, clipped, fitted):
     """A disc's centre (zx, zy) [m] into its track; the radius is smoothed. A clipped disc's centre is
     trusted less, leaves the radius be and moves the position only: it slides with the edge of what hides
-    it, and as a velocity that slide is a post walking."""
+    it, and as a velocity that slide is a post walking. Unless it is as large as the track's body
+    (`whole_radius`, of a radius learnt unclipped): then what hides it only stands beside it."""
+    if clipped and fitted and track[TR_WHOLE] != 0.0 and radius >= s[TS_WHOLE_RADIUS] * track[TR_RADIUS]:
+        clipped = False
     kalman_update(track, cov, zx, zy, (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2, not clipped)
     if not clipped:
-        track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius
+        track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius if track[TR_WHOLE] != 0.0 else radius
+        track[TR_WHOLE] = 1.0
 
 
 @kernel
@@ -330,7 +342,8 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
             # seen DC_T into the scan: carried back to the scan's instant along the track's velocity
             back = discs[d, DC_T]
             _update(s, tracks[j], cov[j], discs[d, DC_X] - tracks[j, TR_VX] * back,
-                    discs[d, DC_Y] - tracks[j, TR_VY] * back, discs[d, DC_RADIUS], discs[d, DC_CLIPPED] != 0.0)
+                    discs[d, DC_Y] - tracks[j, TR_VY] * back, discs[d, DC_RADIUS], discs[d, DC_CLIPPED] != 0.0,
+                    discs[d, DC_FITTED] != 0.0)
             tracks[j, TR_HITS] += 1.0
             tracks[j, TR_MISSES] = 0.0
             tracks[j, TR_SEEN] = t
@@ -381,6 +394,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         tracks[n, TR_BORN] = t
         tracks[n, TR_SEEN] = t
         tracks[n, TR_CONFIRMED] = 1.0 if s[TS_CONFIRM_HITS] <= 1.0 else 0.0
+        tracks[n, TR_WHOLE] = 1.0 if discs[d, DC_CLIPPED] == 0.0 else 0.0
         cov[n, :, :] = 0.0
         cov[n, 0, 0] = cov[n, 1, 1] = s[TS_POSITION_NOISE] ** 2
         cov[n, 2, 2] = cov[n, 3, 3] = s[TS_INITIAL_SPEED_STD] ** 2
