@@ -464,6 +464,33 @@ def top_speed(a, distance, moving_target):
 
 
 @kernel
+def sampling_start(a, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii, distances):
+    """What a sampling method's step (dwa, vo) starts from: the attraction (eq. 22, recorded in the output),
+    each obstacle's clearance into `distances`, the nearest one and its clearance [m], the target's distance
+    [m] and whether it moves."""
+    f_att_x, f_att_y = attraction(x, y, speed * math.cos(yaw), speed * math.sin(yaw), target_x, target_y,
+                                  target_vx, target_vy, a[A_K_P], a[A_K_V])
+    clearances(x, y, positions, radii, a[A_ROBOT_RADIUS], distances)
+    nearest, nearest_d = nearest_obstacle(distances)
+    return (f_att_x, f_att_y, nearest, nearest_d, math.hypot(target_x - x, target_y - y),
+            math.hypot(target_vx, target_vy) > 1e-3)
+
+
+@kernel
+def sampling_finish(a, m, ring, out, stamp, x, y, distance, moving_target, nearest, nearest_d, f_att_x, f_att_y,
+                    alpha, error, v, omega):
+    """A sampling method's choice (v [m/s], omega [rad/s], towards alpha [rad]) through what every method
+    shares: arrival, the stuck check, the rate limits, the output vector (Q_*)."""
+    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
+    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
+    if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
+        mode = STUCK
+    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], a[A_MAX_YAW_JERK])
+    write_output(out, f_att_x, f_att_y, 0.0, 0.0, alpha, error, v, omega, distance, nearest_d, nearest, mode, 0.0,
+                 -1.0, -1.0)
+
+
+@kernel
 def write_output(out, f_att_x, f_att_y, f_rep_x, f_rep_y, alpha, error, v, omega, distance, nearest_d, nearest, mode,
                  escape_side, threat, binding):
     """One planning step's output vector (Q_*)."""

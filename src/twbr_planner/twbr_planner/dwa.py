@@ -26,36 +26,22 @@ import numpy as np
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import inline_kernel, kernel
 from twbr_planner.apf import (
-    A_BRAKE_DECELERATION,
     A_DWA_CLEARANCE_CAP,
     A_DWA_CLEARANCE_WEIGHT,
     A_DWA_HEADING_WEIGHT,
     A_DWA_HORIZON,
     A_DWA_SPEED_WEIGHT,
-    A_K_P,
-    A_K_V,
     A_MAX_YAW_ACCELERATION,
-    A_MAX_YAW_JERK,
     A_MAX_YAW_RATE,
-    A_RHO_O,
     A_ROBOT_RADIUS,
     A_SAFETY_MARGIN,
     A_V_MAX,
-    AVOIDING,
-    FOLLOWING,
     R_LAST_OMEGA,
     R_LAST_V,
-    STUCK,
-    TRACKING,
-    arrive,
-    attraction,
-    clearances,
-    limit_rates,
-    nearest_obstacle,
-    no_progress,
     ramp_speed,
+    sampling_finish,
+    sampling_start,
     top_speed,
-    write_output,
 )
 from twbr_planner.prediction import nearer_distance2, straight_hypotheses
 
@@ -139,12 +125,8 @@ def objective(heading_weight, clearance_weight, speed_weight, clearance_cap, hea
 def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
              velocities, radii, distances):
     """One planning step of the dynamic window approach into `out` (Q_*)."""
-    f_att_x, f_att_y = attraction(x, y, speed * math.cos(yaw), speed * math.sin(yaw), target_x, target_y,
-                                  target_vx, target_vy, a[A_K_P], a[A_K_V])
-    clearances(x, y, positions, radii, a[A_ROBOT_RADIUS], distances)
-    nearest, nearest_d = nearest_obstacle(distances)
-    distance = math.hypot(target_x - x, target_y - y)
-    moving_target = math.hypot(target_vx, target_vy) > 1e-3
+    f_att_x, f_att_y, nearest, nearest_d, distance, moving_target = sampling_start(
+        a, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii, distances)
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
     cap = a[A_DWA_CLEARANCE_CAP]
@@ -171,10 +153,5 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
                 best_v = v_goal
                 best_w = w_goal
                 best_yaw = eyaw
-    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
-    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, best_v, best_w)
-    if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
-        mode = STUCK
-    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], a[A_MAX_YAW_JERK])
-    write_output(out, f_att_x, f_att_y, 0.0, 0.0, best_yaw, wrap_angle(best_yaw - yaw), v, omega, distance, nearest_d,
-                 nearest, mode, 0.0, -1.0, -1.0)
+    sampling_finish(a, m, ring, out, stamp, x, y, distance, moving_target, nearest, nearest_d, f_att_x, f_att_y,
+                    best_yaw, wrap_angle(best_yaw - yaw), best_v, best_w)

@@ -19,29 +19,15 @@ import math
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
-    A_BRAKE_DECELERATION,
-    A_K_P,
     A_K_S,
-    A_K_V,
-    A_MAX_YAW_JERK,
     A_MAX_YAW_RATE,
-    A_RHO_O,
     A_ROBOT_RADIUS,
     A_SAFETY_MARGIN,
     A_V_MAX,
     A_VO_HORIZON,
-    AVOIDING,
-    FOLLOWING,
-    STUCK,
-    TRACKING,
-    arrive,
-    attraction,
-    clearances,
-    limit_rates,
-    nearest_obstacle,
-    no_progress,
+    sampling_finish,
+    sampling_start,
     top_speed,
-    write_output,
 )
 
 HEADINGS = 36  # directions sampled round the circle
@@ -80,12 +66,8 @@ def first_contact(x, y, ux, uy, positions, velocities, radii, grow):
 def vo_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions,
             velocities, radii, distances):
     """One planning step of the velocity obstacle method into `out` (Q_*)."""
-    f_att_x, f_att_y = attraction(x, y, speed * math.cos(yaw), speed * math.sin(yaw), target_x, target_y,
-                                  target_vx, target_vy, a[A_K_P], a[A_K_V])
-    clearances(x, y, positions, radii, a[A_ROBOT_RADIUS], distances)
-    nearest, nearest_d = nearest_obstacle(distances)
-    distance = math.hypot(target_x - x, target_y - y)
-    moving_target = math.hypot(target_vx, target_vy) > 1e-3
+    f_att_x, f_att_y, nearest, nearest_d, distance, moving_target = sampling_start(
+        a, x, y, yaw, speed, target_x, target_y, target_vx, target_vy, positions, radii, distances)
     preferred = top_speed(a, distance, moving_target)
     to_target = math.atan2(target_y - y, target_x - x)
     pref_x = preferred * math.cos(to_target)
@@ -116,10 +98,5 @@ def vo_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, target
     error = wrap_angle(alpha - yaw)
     omega = min(max(a[A_K_S] * error, -a[A_MAX_YAW_RATE]), a[A_MAX_YAW_RATE])
     v = chosen * max(0.0, math.cos(error))
-    mode = AVOIDING if nearest_d <= a[A_RHO_O] else TRACKING
-    mode, v, omega, arrived = arrive(a, m, distance, moving_target, mode, v, omega)
-    if not arrived and mode != FOLLOWING and no_progress(a, m, ring, stamp, distance, x, y, moving_target):
-        mode = STUCK
-    v, omega = limit_rates(a, m, stamp, v, omega, a[A_BRAKE_DECELERATION], a[A_MAX_YAW_JERK])
-    write_output(out, f_att_x, f_att_y, 0.0, 0.0, alpha, error, v, omega, distance, nearest_d, nearest, mode, 0.0,
-                 -1.0, -1.0)
+    sampling_finish(a, m, ring, out, stamp, x, y, distance, moving_target, nearest, nearest_d, f_att_x, f_att_y,
+                    alpha, error, v, omega)
