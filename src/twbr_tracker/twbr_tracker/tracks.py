@@ -7,10 +7,11 @@ the filter's velocity of a post seen from a moving robot is noise, and a planner
 walked. A disc partly hidden behind a nearer one (detection's DC_CLIPPED) moves its track's position but
 not its velocity: its centre slides with the edge of the shadow as the robot drives past (0.4-0.7 m/s in
 the suite's static clutter, where the planner then drove among the posts as among people), and a track
-coasting behind it would carry that speed on (benchmarks/HISTORY.md, thirteenth session). A clipped disc
-as large as its track's body (`whole_radius` of the radius its unclipped sightings gave) is whole: the
-nearer object only stands beside it in the scan, as the posts beside a walker in clutter do, and the
-walker's velocity would otherwise freeze for as long as it walks among them (twentieth session).
+coasting behind it would carry that speed on (benchmarks/HISTORY.md, thirteenth session). A fitted clipped
+disc as large as its track's body (`whole_radius` of the track's radius, once an unclipped sighting has
+set it) is whole: the nearer object only stands beside it in the scan, as the posts beside a walker in
+clutter do, and the walker's velocity would otherwise freeze for as long as it walks among them
+(twentieth session). A whole disc then updates the track as an unclipped one does, radius included.
 
 A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
 closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
@@ -69,9 +70,9 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
               " last match, and a new disc within its gate takes it back with its id (0: off)", "s", 0.0, 600.0),
     ParamSpec("tracking.occlusion_margin", 0.2, "a beam shorter than a track's near side by this much passes in"
               " front of it", "m", 0.0, 5.0),
-    ParamSpec("tracking.whole_radius", 0.85, "a clipped disc at least this fraction of its track's radius (learnt"
-              " from unclipped sightings) shows the whole body: it moves the velocity as an unclipped one does"
-              " (above 1: never)", "", 0.0, 10.0),
+    ParamSpec("tracking.whole_radius", 0.85, "a fitted clipped disc at least this fraction of its track's radius"
+              " (once an unclipped sighting has set it) shows the whole body: it updates the track as an"
+              " unclipped one does, velocity and radius (above 1: never)", "", 0.0, 10.0),
 )
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
@@ -110,7 +111,7 @@ TR_BORN = TRACK_LAYOUT["born"]  # [s]
 TR_SEEN = TRACK_LAYOUT["seen"]  # [s] its last match
 TR_OCCLUDED = TRACK_LAYOUT["occluded"]  # 1: hidden behind closer returns in the last scan
 TR_LOST = TRACK_LAYOUT["lost"]  # 1: dropped, unpublished, kept for re-identification
-TR_WHOLE = TRACK_LAYOUT["whole"]  # 1: seen unclipped at least once (its radius is its own)
+TR_WHOLE = TRACK_LAYOUT["whole"]  # 1: seen unclipped at least once (its radius set from the body, not a sliver)
 N_TRACK = len(TRACK_LAYOUT)
 
 
@@ -187,8 +188,9 @@ def kalman_update(track, cov, zx, zy, variance, velocity_too=True):
 def _update(s, track, cov, zx, zy, radius, clipped, fitted):
     """A disc's centre (zx, zy) [m] into its track; the radius is smoothed. A clipped disc's centre is
     trusted less, leaves the radius be and moves the position only: it slides with the edge of what hides
-    it, and as a velocity that slide is a post walking. Unless it is as large as the track's body
-    (`whole_radius`, of a radius learnt unclipped): then what hides it only stands beside it."""
+    it, and as a velocity that slide is a post walking. Unless it is a fitted circle as large as the track's
+    body (`whole_radius`, once an unclipped sighting has set the radius): then what hides it only stands
+    beside it, and the disc counts as unclipped, for the radius too."""
     if clipped and fitted and track[TR_WHOLE] != 0.0 and radius >= s[TS_WHOLE_RADIUS] * track[TR_RADIUS]:
         clipped = False
     kalman_update(track, cov, zx, zy, (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2, not clipped)
