@@ -11,9 +11,11 @@ target whose covariance[0] is -1, position unknown, on which the planner stands)
 
 Each scan and each look is placed with the first odom stamped at or after its stamp (a simulator sends an
 instant's scan and look before its odom; a robot's odom comes at 100-200 Hz), waiting for it if need be,
-so the output is the same however the streams interleave: a lockstep run is the same loaded or idle. One
-with no such odom within `odom_timeout` of it is dropped (and said so), never placed at a stale pose; one
-not newer than the last of its stream (a simulator offering its first state again) is skipped.
+and found among the last `odom_history` seconds of odoms if later ones came first, so the output is the
+same however the streams interleave: a lockstep run is the same loaded or idle. One with no such odom
+within `odom_timeout` of it, or older than the history, is dropped (and said so), never placed at another
+instant's pose; one not newer than the last of its stream (a simulator offering its first state again) is
+skipped.
 
     ros2 run twbr_tracker tracker_node --ros-args --params-file config/tracker.yaml
 """
@@ -41,12 +43,14 @@ from twbr_msgs.msg import ObstacleArray
 from twbr_sim.run_report import LatencyRecord
 from twbr_sim.world import TargetState
 from twbr_sim.world_messages import obstacles_message, target_message, world_markers
+from twbr_tracker.pose_history import POSE_HISTORY_SPECS, PoseHistory
 from twbr_tracker.target import TARGET_SPECS, TargetEstimate, TargetFilter
 from twbr_tracker.tracker import TRACKER_SPECS, Tracker
 
 NODE_SPECS: tuple[ParamSpec, ...] = (
     *TRACKER_SPECS,
     *TARGET_SPECS,
+    *POSE_HISTORY_SPECS,
     ParamSpec("odom_timeout", 0.2, "a scan or look whose first odom at or after it comes later than this is dropped", "s",
               0.001, 10.0),
     ParamSpec("odom_frame", "odom", "frame of the published obstacles"),
@@ -66,7 +70,7 @@ class TrackerNode(Node):
         self.inputs = input_streams(self, SLOW_SIM_FUTURE_TOLERANCE)  # its INPUT_SPECS
         self.inputs.add("odom", cfg["odom_timeout"], limit=POSITION_LIMIT)
         self.inputs.on_restart(self._restart)
-        self._pose: tuple[float, ...] | None = None  # newest odom: stamp, x, y, yaw, speed, yaw rate, pitch
+        self.poses = PoseHistory(cfg["odom_history"])  # odoms: stamp, x, y, yaw, speed, yaw rate, pitch
         # per stream: a message newer than every odom yet (placed by the next one), and the last one's stamp
         self._waiting: dict[str, LaserScan | PoseArray] = {}
         self._last: dict[str, float] = {}
@@ -92,7 +96,7 @@ class TrackerNode(Node):
         self.get_logger().warning("clock jumped back: every track and the target are dropped")
         self.core.reset()
         self.target.reset()
-        self._pose = None
+        self.poses.clear()
         self._waiting.clear()
         self._last.clear()
 
@@ -103,7 +107,7 @@ class TrackerNode(Node):
         if not self.inputs.admit("odom", stamp, (p.x, p.y, o.x, o.y, o.z, o.w, v, w), self._now()):
             return
         _roll, pitch, yaw = rpy_from_quaternion(o.x, o.y, o.z, o.w)
-        self._pose = (stamp, p.x, p.y, yaw, v, w, pitch)
+        self.poses.add(stamp, p.x, p.y, yaw, v, w, pitch)
         for stream, waiting in list(self._waiting.items()):
             if stamp >= stamp_seconds(waiting.header.stamp):
                 del self._waiting[stream]
@@ -117,7 +121,7 @@ class TrackerNode(Node):
         if waiting is not None and stamp_seconds(waiting.header.stamp) != t:  # not the same offered again
             self.get_logger().warning(f"{stream} at t = {stamp_seconds(waiting.header.stamp):.3f} s dropped: no"
                                       " odom at or after it before the next one", throttle_duration_sec=2.0)
-        if self._pose is not None and self._pose[0] >= t:
+        if self.poses.newest() >= t:
             self._place(stream, msg)
         else:
             self._waiting[stream] = msg
@@ -125,7 +129,12 @@ class TrackerNode(Node):
     def _place(self, stream: str, msg: LaserScan | PoseArray) -> None:
         """`msg` with the robot's pose at its stamp (the odom's, carried back along its twist)."""
         t = stamp_seconds(msg.header.stamp)
-        stamp, x, y, yaw, v, w, pitch = self._pose
+        odom = self.poses.at_or_after(t)
+        if odom is None:
+            self.get_logger().warning(f"{stream} at t = {t:.3f} s dropped: older than the odom history"
+                                      f" ({self.cfg['odom_history']:g} s)", throttle_duration_sec=2.0)
+            return
+        stamp, x, y, yaw, v, w, pitch = odom
         if stamp - t > self.cfg["odom_timeout"]:
             self.get_logger().warning(f"{stream} at t = {t:.3f} s dropped: no odom within"
                                       f" {self.cfg['odom_timeout']:g} s of it", throttle_duration_sec=2.0)
