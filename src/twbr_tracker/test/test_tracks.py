@@ -15,20 +15,26 @@ from twbr_sim.noise import new_generator
 from twbr_tracker.detection import DC_RADIUS, DC_X, DC_Y, DETECTION_SPECS, N_DISC, detect
 from twbr_tracker.detection import settings_vector as detection_vector
 from twbr_tracker.tracks import (
+    N_TRACK,
     TR_CONFIRMED,
     TR_ID,
     TR_LOST,
     TR_MOVING,
+    TR_RADIUS,
+    TR_T,
     TR_VX,
     TR_VY,
+    TR_WHOLE,
     TR_X,
     TR_Y,
     TRACK_SPECS,
+    kalman_predict,
     mark_occluded,
     new_tracks,
     settings_vector,
     track_step,
 )
+from twbr_tracker.tracks import _update as update_track
 
 AXLE = 0.10
 RATE = 10.0
@@ -318,6 +324,23 @@ def test_a_walker_beside_a_nearer_post_keeps_its_velocity_up_to_date(seed: int):
     errors = walker_along_a_posts_shadow(0.85, seed)
     assert len(errors) >= 20 and max(errors) <= 0.15
     assert np.mean(walker_along_a_posts_shadow(2.0, seed)) > 0.15
+
+
+def test_a_whole_but_clipped_disc_moves_the_velocity_and_leaves_the_radius():
+    """A walker (0.3 m) seen for 10 s at 10 Hz only as fitted discs clipped by a post beside it, each 0.86 of
+    its radius: the velocity follows the walk (0.5 m/s along x), and the radius stays the body's, where
+    smoothing it from those discs would take it to 0.26 m in 1 s and let ever smaller slivers count as whole."""
+    s = settings_vector(defaults(TRACK_SPECS))
+    track, cov = np.zeros(N_TRACK), np.eye(4)
+    track[TR_RADIUS], track[TR_WHOLE] = 0.3, 1.0  # an unclipped sighting has set the radius
+    for k in range(1, 101):
+        t = 0.1 * k
+        kalman_predict(track, cov, t, 1.0)
+        update_track(s, track, cov, 0.5 * t, 0.0, 0.86 * track[TR_RADIUS], True, True)
+    assert track[TR_RADIUS] == 0.3 and track[TR_T] == pytest.approx(10.0)
+    assert abs(track[TR_VX] - 0.5) < 0.02 and abs(track[TR_VY]) < 0.02
+    update_track(s, track, cov, 5.05, 0.0, 0.32, False, True)  # an unclipped disc sets it
+    assert 0.3 < track[TR_RADIUS] < 0.32
 
 
 def test_a_person_who_stops_and_goes_again_is_moving_again_at_once():

@@ -11,7 +11,9 @@ coasting behind it would carry that speed on (benchmarks/HISTORY.md, thirteenth 
 disc as large as its track's body (`whole_radius` of the track's radius, once an unclipped sighting has
 set it) is whole: the nearer object only stands beside it in the scan, as the posts beside a walker in
 clutter do, and the walker's velocity would otherwise freeze for as long as it walks among them
-(twentieth session). A whole disc then updates the track as an unclipped one does, radius included.
+(twentieth session). A whole disc then updates the track's position and velocity as an unclipped one does,
+but not its radius: a disc that may be 0.85 of the body would otherwise pull the radius down a little at
+each scan, and a smaller radius lets a smaller sliver count as whole at the next.
 
 A person hidden behind another (or behind a wall) is not missing: a track whose predicted disc lies behind
 closer returns over most of its width (`occluded`) coasts on its prediction without counting misses, for
@@ -72,7 +74,8 @@ TRACK_SPECS: tuple[ParamSpec, ...] = (
               " front of it", "m", 0.0, 5.0),
     ParamSpec("tracking.whole_radius", 0.85, "a fitted clipped disc at least this fraction of its track's radius"
               " (once an unclipped sighting has set it) shows the whole body: it updates the track as an"
-              " unclipped one does, velocity and radius (above 1: never)", "", 0.0, 10.0),
+              " unclipped one does, position and velocity; the radius only an unclipped disc sets (above 1:"
+              " never)", "", 0.0, 10.0),
 )
 
 SETTINGS_LAYOUT = Layout(("gate", "confirm_hits", "max_misses", "acceleration_noise", "position_noise",
@@ -190,10 +193,9 @@ def _update(s, track, cov, zx, zy, radius, clipped, fitted):
     trusted less, leaves the radius be and moves the position only: it slides with the edge of what hides
     it, and as a velocity that slide is a post walking. Unless it is a fitted circle as large as the track's
     body (`whole_radius`, once an unclipped sighting has set the radius): then what hides it only stands
-    beside it, and the disc counts as unclipped, for the radius too."""
-    if clipped and fitted and track[TR_WHOLE] != 0.0 and radius >= s[TS_WHOLE_RADIUS] * track[TR_RADIUS]:
-        clipped = False
-    kalman_update(track, cov, zx, zy, (s[TS_CLIPPED_NOISE] if clipped else s[TS_POSITION_NOISE]) ** 2, not clipped)
+    beside it, and the disc moves the velocity too; the radius only an unclipped disc sets."""
+    whole = (not clipped or (fitted and track[TR_WHOLE] != 0.0 and radius >= s[TS_WHOLE_RADIUS] * track[TR_RADIUS]))
+    kalman_update(track, cov, zx, zy, (s[TS_POSITION_NOISE] if whole else s[TS_CLIPPED_NOISE]) ** 2, whole)
     if not clipped:
         track[TR_RADIUS] = 0.7 * track[TR_RADIUS] + 0.3 * radius if track[TR_WHOLE] != 0.0 else radius
         track[TR_WHOLE] = 1.0
