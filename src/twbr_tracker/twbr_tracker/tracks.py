@@ -2,7 +2,8 @@
 to the next scan's discs by the Hungarian method on a gated distance, born from an unmatched disc,
 confirmed after `confirm_hits` matches, dropped after `max_misses` scans without one (a tentative track at
 its first miss), and called moving above `moving_speed` (static again below half of it, or as soon as its
-disc lies on a surface an earlier scan saw: surfaces.py). A static track is published still (velocity 0):
+disc lies on a surface an earlier scan saw: surfaces.py; or, unseen, while it lies on a wall's chain of
+discs, which a wall's end it was has merged into). A static track is published still (velocity 0):
 the filter's velocity of a post seen from a moving robot is noise, and a planner would evade it as if it
 walked. A disc partly hidden behind a nearer one (detection's DC_CLIPPED) moves its track's position but
 not its velocity: its centre slides with the edge of the shadow as the robot drives past (0.4-0.7 m/s in
@@ -316,6 +317,23 @@ def _evict_lost(tracks, cov, n):
 
 
 @kernel
+def on_a_wall(track, discs, n_discs):
+    """Whether an unseen track's disc overlaps one of the scan's wall discs: the end of a wall that a scan
+    showed as a compact piece has merged into the wall's chain as the robot drove on, and its filter would
+    coast it on along its slide as a walker (trap_large on the LiDAR: a moving track at 72-86 % of the
+    scans; benchmarks/HISTORY.md, twenty-first session). A person hidden behind a post is behind closer
+    returns, not on them."""
+    for d in range(n_discs):
+        if discs[d, DC_WALL] != 0.0:
+            reach = discs[d, DC_RADIUS] + track[TR_RADIUS]
+            dx = track[TR_X] - discs[d, DC_X]
+            dy = track[TR_Y] - discs[d, DC_Y]
+            if dx * dx + dy * dy < reach * reach:
+                return True
+    return False
+
+
+@kernel
 def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
     """One scan's discs (detection's rows) at time t [s] into the tracks tracks[:n] (their TR_OCCLUDED
     marked for this scan, mark_occluded); returns the new (n, next_id). Rows move: a dropped track's row
@@ -354,10 +372,13 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
             if tracks[j, TR_HITS] >= s[TS_CONFIRM_HITS]:
                 tracks[j, TR_CONFIRMED] = 1.0
             still = discs[d, DC_STILL] != 0.0
-        elif tracks[j, TR_OCCLUDED] == 0.0 or tracks[j, TR_CONFIRMED] == 0.0:
-            tracks[j, TR_MISSES] += 1.0
+        else:
+            if tracks[j, TR_OCCLUDED] == 0.0 or tracks[j, TR_CONFIRMED] == 0.0:
+                tracks[j, TR_MISSES] += 1.0
+            still = on_a_wall(tracks[j], discs, n_discs)
         # static / moving, with hysteresis: moving above moving_speed, static again below half of it, and
-        # static whatever its speed while its disc lies on a surface an earlier scan saw (surfaces.py)
+        # static whatever its speed while its disc lies on a surface an earlier scan saw (surfaces.py), or,
+        # unseen, on a wall's chain of discs
         speed = math.hypot(tracks[j, TR_VX], tracks[j, TR_VY])
         if still:
             tracks[j, TR_MOVING] = 0.0
