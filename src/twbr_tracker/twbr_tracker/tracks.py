@@ -27,7 +27,10 @@ A confirmed track that is dropped anyway (hidden longer than `max_coast`, out of
 forgotten at once: it is kept unpublished ("lost") on its prediction until `reidentify_time` after its last
 match, and a disc that no live track takes and that lies within a lost track's gate takes that track back,
 id and all, instead of starting a new one (the lost-track buffer of SORT-family trackers: Wojke, Bewley &
-Paulus 2017, DeepSORT's max_age; here on position alone, since a scan has no appearance).
+Paulus 2017, DeepSORT's max_age; here on position alone, since a scan has no appearance). It comes back at
+the mean velocity of its jump only if it was ever seen whole: a track only ever seen clipped has no
+velocity of its own, and a wall's sliver taken back 0.4 m off would walk on at that jump's speed
+(narrow_passage on the LiDAR: benchmarks/HISTORY.md, twenty-third session).
 
 The state is (x, y, vx, vy) in odom [m, m/s]; the motion model is white-noise acceleration of spectral
 density `acceleration_noise` (Bar-Shalom, Li & Kirubarajan 2001, ch. 6: Q for a step dt is
@@ -278,13 +281,15 @@ def _associate(s, tracks, cov, n, discs, compact, m, taken, match, lost):
 
 
 @kernel
-def _revive(s, track, cov, t, zx, zy):
-    """A lost track taken back by the disc at (zx, zy) [m]: there now, at the mean velocity from its last
-    match to here (its prediction is that match carried at its old velocity), with the covariance of a
-    velocity from two fixes `gap` apart plus the random walk of the velocity over the gap."""
+def _revive(s, track, cov, t, zx, zy, velocity_too):
+    """A lost track taken back by the disc at (zx, zy) [m]: there now, with `velocity_too` at the mean
+    velocity from its last match to here (its prediction is that match carried at its old velocity), else at
+    the velocity it had; with the covariance of a velocity from two fixes `gap` apart plus the random walk
+    of the velocity over the gap."""
     gap = max(t - track[TR_SEEN], 1e-3)
-    track[TR_VX] += (zx - track[TR_X]) / gap
-    track[TR_VY] += (zy - track[TR_Y]) / gap
+    if velocity_too:
+        track[TR_VX] += (zx - track[TR_X]) / gap
+        track[TR_VY] += (zy - track[TR_Y]) / gap
     track[TR_X] = zx
     track[TR_Y] = zy
     variance = s[TS_POSITION_NOISE] ** 2
@@ -356,7 +361,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         if tracks[j, TR_LOST] != 0.0:
             if k >= 0:  # re-identified: the track is back, id and all
                 d = compact[k]
-                _revive(s, tracks[j], cov[j], t, discs[d, DC_X], discs[d, DC_Y])
+                _revive(s, tracks[j], cov[j], t, discs[d, DC_X], discs[d, DC_Y], tracks[j, TR_WHOLE] != 0.0)
             continue
         if k >= 0:
             d = compact[k]
