@@ -356,3 +356,35 @@ def test_an_evasion_keeps_its_own_jerk_limit_when_one_is_set():
             assert jerk_steps[evading].max() <= limit * 0.05 ** 2 + 1e-12
         else:
             assert jerk_steps[evading].max() > limit * 0.05 ** 2 * 1.5  # unlimited: well past it
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.08])
+def test_an_escape_pressed_against_a_disc_slides_off_it(offset: float):
+    # clutter on the LiDAR, seed 108: the robot stands against a post (the first disc) and the navigation
+    # function's way through the gap beyond cuts 0.3 rad into the post (the robot's grid cell lies inside
+    # the inflated disc). Followed, it held the robot pressed there for 90 s (the safety filter forbids the
+    # turn, the collision monitor the speed); touching, the escape turns out along the post instead. 0.08 m
+    # off the post the way is followed as the grid has it.
+    from twbr_planner.escape import escape
+    from twbr_planner.navigation import navigation_direction
+
+    positions = np.array([[4.48, -0.89], [4.55, 0.72], [2.36, 0.17], [2.56, -1.83]])
+    radii = np.array([0.43, 0.34, 0.29, 0.40])
+    moving = np.zeros(4, dtype=np.bool_)
+    out_x, out_y = (3.86 - 4.48) / 0.735, (-0.5 + 0.89) / 0.735  # from the post's centre out to the robot
+    x, y = 3.86 + offset * out_x, -0.5 + offset * out_y
+    tx, ty = 10.5, 0.0
+    m = memory()
+    m[apf.R_FOLLOWING], m[apf.R_HIT_DISTANCE] = 1.0, 100.0  # escaping, far from leaving
+    d = math.hypot(tx - x, ty - y)
+    gx, gy = (tx - x) / d, (ty - y) / d
+    ex, ey, side, escaping = escape(A, m, 1.0, x, y, d, False, tx, ty, gx, gy, gx, gy, False, 0.5, gx, gy, positions,
+                                    radii, moving)
+    way_x, way_y, found = navigation_direction(x, y, tx, ty, positions, radii, moving,
+                                               A[apf.A_ROBOT_RADIUS] + A[apf.A_FREE_MARGIN])
+    assert escaping and found and side != 0.0
+    assert way_x * out_x + way_y * out_y < 0.0  # the grid's way cuts into the post
+    if offset == 0.0:
+        assert (ex * out_x + ey * out_y) / math.hypot(ex, ey) > 0.5  # off the post, more out than along
+    else:
+        assert (ex, ey) == (way_x, way_y)

@@ -4,7 +4,8 @@ When the straight way to the target is blocked within `follow_range`, or the fie
 or the progress detector finds none, the robot descends a navigation function (twbr_planner.navigation: a
 cost-to-go over a grid of the static obstacles, which has no minimum but the target) and leaves it once it
 is `leave_progress` closer to the target than where it started and the way towards the target is free
-(TangentBug's rule, Kamon, Rivlin & Rimon 1998). Where no way leads to the target it follows the obstacles'
+(TangentBug's rule, Kamon, Rivlin & Rimon 1998); touching a disc its way turns into, it slides off the disc
+first (docs/planner.md, addition 2). Where no way leads to the target it follows the obstacles'
 boundary instead (the tangent of their normal, at `follow_clearance`, on the side nearer the target's
 direction, turning to the other side after `follow_flip_time` without leaving).
 """
@@ -93,6 +94,14 @@ def escape(a, m, stamp, x, y, distance, moving_target, target_x, target_y, gx, g
     if m[R_FOLLOWING] != 0.0 and found:
         # down the navigation function; the side is the one it passes the target's direction on
         side = 1.0 if gx * escape_y - gy * escape_x >= 0.0 else -1.0
+        inward = escape_x * nx + escape_y * ny
+        if near_boundary < a[A_FREE_MARGIN] and inward < 0.0:
+            # touching a disc the grid's way cuts into (its cell lies inside the inflated disc): slide off it
+            # along its tangent and out, as boundary following would; straight on, the safety filter holds
+            # the turn and the collision monitor the speed, and the robot stands pressed against it
+            push = a[A_FOLLOW_GAIN] * (a[A_FOLLOW_CLEARANCE] - near_boundary)
+            escape_x += (push - inward) * nx
+            escape_y += (push - inward) * ny
         return escape_x, escape_y, side, True
     if m[R_FOLLOWING] != 0.0 and near_boundary < math.inf:
         side = m[R_FOLLOW_SIDE]
