@@ -91,6 +91,8 @@ def escape(a, m, stamp, x, y, distance, moving_target, target_x, target_y, gx, g
         m[R_FOLLOW_SINCE] = stamp
         # the side whose tangent is nearer the target's direction
         m[R_FOLLOW_SIDE] = 1.0 if (-ny * gx + nx * gy) >= 0.0 else -1.0
+    # boundary following's push out along the normal, towards follow_clearance (used only near a boundary)
+    correction = a[A_FOLLOW_GAIN] * (a[A_FOLLOW_CLEARANCE] - near_boundary)
     if m[R_FOLLOWING] != 0.0 and found:
         # down the navigation function; the side is the one it passes the target's direction on
         side = 1.0 if gx * escape_y - gy * escape_x >= 0.0 else -1.0
@@ -99,12 +101,10 @@ def escape(a, m, stamp, x, y, distance, moving_target, target_x, target_y, gx, g
             # touching a disc the grid's way cuts into (its cell lies inside the inflated disc): slide off it
             # along its tangent and out, as boundary following would; straight on, the safety filter holds
             # the turn and the collision monitor the speed, and the robot stands pressed against it
-            push = a[A_FOLLOW_GAIN] * (a[A_FOLLOW_CLEARANCE] - near_boundary)
-            escape_x += (push - inward) * nx
-            escape_y += (push - inward) * ny
+            escape_x += (correction - inward) * nx
+            escape_y += (correction - inward) * ny
         return escape_x, escape_y, side, True
     if m[R_FOLLOWING] != 0.0 and near_boundary < math.inf:
         side = m[R_FOLLOW_SIDE]
-        correction = a[A_FOLLOW_GAIN] * (a[A_FOLLOW_CLEARANCE] - near_boundary)
         return -ny * side + correction * nx, nx * side + correction * ny, side, True
     return total_x, total_y, 0.0, False

@@ -413,7 +413,7 @@ def revived_after_a_jump(first_clipped: bool) -> np.ndarray:
         seen = k < 5 or k >= 12
         disc = np.zeros((1, N_DISC))
         disc[0, DC_X], disc[0, DC_Y], disc[0, DC_RADIUS] = (2.1 if k >= 12 else 2.5), 0.85, 0.1
-        disc[0, DC_CLIPPED] = 0.0 if first_clipped is False and k == 0 else 1.0
+        disc[0, DC_CLIPPED] = 0.0 if k == 0 and not first_clipped else 1.0
         n, next_id = track_step(s, tracks, cov, n, next_id, 0.1 * k, disc, 1 if seen else 0)
         if k == 11:
             assert n == 1 and tracks[0, TR_LOST] == 1.0

@@ -281,13 +281,13 @@ def _associate(s, tracks, cov, n, discs, compact, m, taken, match, lost):
 
 
 @kernel
-def _revive(s, track, cov, t, zx, zy, velocity_too):
-    """A lost track taken back by the disc at (zx, zy) [m]: there now, with `velocity_too` at the mean
+def _revive(s, track, cov, t, zx, zy):
+    """A lost track taken back by the disc at (zx, zy) [m]: there now, if it was ever seen whole at the mean
     velocity from its last match to here (its prediction is that match carried at its old velocity), else at
     the velocity it had; with the covariance of a velocity from two fixes `gap` apart plus the random walk
     of the velocity over the gap."""
     gap = max(t - track[TR_SEEN], 1e-3)
-    if velocity_too:
+    if track[TR_WHOLE] != 0.0:
         track[TR_VX] += (zx - track[TR_X]) / gap
         track[TR_VY] += (zy - track[TR_Y]) / gap
     track[TR_X] = zx
@@ -361,7 +361,7 @@ def track_step(s, tracks, cov, n, next_id, t, discs, n_discs):
         if tracks[j, TR_LOST] != 0.0:
             if k >= 0:  # re-identified: the track is back, id and all
                 d = compact[k]
-                _revive(s, tracks[j], cov[j], t, discs[d, DC_X], discs[d, DC_Y], tracks[j, TR_WHOLE] != 0.0)
+                _revive(s, tracks[j], cov[j], t, discs[d, DC_X], discs[d, DC_Y])
             continue
         if k >= 0:
             d = compact[k]
