@@ -8,7 +8,9 @@ controller with each 20 Hz command of v and omega held as it comes (reference_ho
 only v's commands as they come (issue 35: the 20 Hz sawtooth while the planner accelerates); "catch-up 1" is
 the hold as first shipped (v_ref and omega_ref continued along the planner's slope, the gap to each command
 closed within one interval: where the planner reverses its yaw acceleration the line bends twice as hard);
-"shipped" is today's defaults (the gap closed over reference_hold.catch_up 3 intervals); "smoothed"
+"no jerk" closes the gap over reference_hold.catch_up 3 intervals, the shaped references' slopes free to
+bend at once (as shipped until issue 35's jerk limits); "shipped" is today's defaults (that, with the slopes
+changing by at most reference_jerk.yaw_rate 40 rad/s^3 and reference_jerk.velocity 2 m/s^3); "smoothed"
 is that averaged over 0.1 s while the planner ramps (reference_smoothing.*, off by default: the bends where
 its yaw acceleration reverses no longer jolt the torques, but the steering lags); "yaw ramp"
 instead limits omega_ref's rate to the planner's own max_yaw_acceleration, which spreads each command step
@@ -34,13 +36,16 @@ BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
     "reference_rate.velocity": 0.0, "reference_rate.yaw_rate": 0.0, "reference_hold.yaw_rate": 0.0,
     "velocity.kp": 0.4529, "velocity.ki": 0.6938, "velocity.kd": 0.0, "velocity.setpoint_weight": 0.494,
     "velocity.derivative_filter": 0.02, "pitch.kp": 42.52, "pitch.ki": 0.0, "pitch.kd": 8.793,
-    "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293,
+    "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293, "reference_jerk.yaw_rate": 0.0,
+    "reference_jerk.velocity": 0.0,
 }
-HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0}
-V_STEPPED = {"reference_hold.velocity": 0.0}
-CATCH_UP_1 = {"reference_hold.catch_up": 1.0}
-SMOOTHED = {"reference_smoothing.yaw_rate": 0.1, "reference_smoothing.velocity": 0.1}
-RAMP = {"reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
+HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0, "reference_jerk.yaw_rate": 0.0,
+        "reference_jerk.velocity": 0.0}
+V_STEPPED = {"reference_hold.velocity": 0.0, "reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0}
+NO_JERK = {"reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0}
+CATCH_UP_1 = {**NO_JERK, "reference_hold.catch_up": 1.0}
+SMOOTHED = {**NO_JERK, "reference_smoothing.yaw_rate": 0.1, "reference_smoothing.velocity": 0.1}
+RAMP = {**NO_JERK, "reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration
 PLANNER_HZ = 20.0
 LINE_WINDOW = (15.0, 20.0)  # [s] of make demo's run: the planner accelerating away from the start
 CUTOFF_HZ = 10.0
@@ -83,7 +88,7 @@ def torque_figures(control: dict) -> dict:
 
 def main() -> int:
     rows = {"before": torque_figures(BEFORE), "held": torque_figures(HELD), "v stepped": torque_figures(V_STEPPED),
-            "catch-up 1": torque_figures(CATCH_UP_1), "shipped": torque_figures({}),
+            "catch-up 1": torque_figures(CATCH_UP_1), "no jerk": torque_figures(NO_JERK), "shipped": torque_figures({}),
             "smoothed": torque_figures(SMOOTHED), "yaw ramp": torque_figures(RAMP)}
     print(f"{'':10} {'max step L/R N·m':>18} {'power >10 Hz L/R (N·m)²':>26} {'20 Hz line 15-20 s L/R N·m':>27}"
           f" {'step roll-back %':>17} {'settle s':>9} {'overshoot %':>12} {'run s':>6}")

@@ -18,6 +18,11 @@ def make(**overrides):
     return CascadeController({**defaults(CONTROL_SPECS), **overrides})
 
 
+def without_jerk(**overrides):
+    """The hold and the rate limits alone, as the tests of each measure them (reference_jerk.* off)."""
+    return make(**{"reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0, **overrides})
+
+
 def test_forward_lean_is_caught_by_driving_the_wheels_forward():
     out = make().compute(0.0, 0.0, 0.0, velocity=0.0, yaw_rate=0.0, pitch=0.05, pitch_rate=0.0)
     assert out.left_torque > 0 and out.right_torque > 0 and out.left_torque == out.right_torque
@@ -176,7 +181,7 @@ def test_a_cmd_vel_takes_effect_from_the_state_after_it_whatever_the_order_of_ar
 def test_a_rate_limited_yaw_rate_step_moves_the_torque_in_tenths():
     """reference_rate.yaw_rate 8 rad/s^2 at 200 Hz: a 0.4 rad/s step is reached in 10 samples in a straight line,
     so the yaw-rate loop's proportional kick is a tenth of the unlimited one per sample."""
-    plain, ramped = make(), make(**{"reference_rate.yaw_rate": 8.0})
+    plain, ramped = without_jerk(), without_jerk(**{"reference_rate.yaw_rate": 8.0})
     for c in (plain, ramped):
         c.compute(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     kick = plain.compute(0.005, 0.0, 0.4, 0.0, 0.0, 0.0, 0.0).differential_torque
@@ -194,7 +199,7 @@ def test_a_rate_limited_yaw_rate_step_moves_the_torque_in_tenths():
 def test_a_command_stream_within_the_rate_limit_passes_unchanged():
     """A planner's speed commands change by at most its max_acceleration (0.06 m/s^2: 0.003 m/s per 50 ms): under
     the controller's 0.36 m/s^2 each reaches the loop within two 5 ms samples, so the stream is not delayed."""
-    c = make()
+    c = without_jerk()
     for k in range(200):
         reference = 0.003 * (k // 10)
         shaped = c.compute(0.005 * k, reference, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped
@@ -203,7 +208,7 @@ def test_a_command_stream_within_the_rate_limit_passes_unchanged():
 
 
 def test_a_reset_starts_the_ramps_from_zero():
-    c = make(**{"reference_rate.velocity": 1.5})
+    c = without_jerk(**{"reference_rate.velocity": 1.5})
     for k in range(100):
         c.compute(0.005 * k, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0)
     assert c.compute(0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped == 0.3
@@ -233,8 +238,8 @@ def test_a_planner_ramp_reaches_the_yaw_rate_loop_as_a_ramp_not_a_staircase():
     reference and the proportional term kicks the differential torque 20 times a second; continued along the
     stream's slope, the reference is the ramp itself, with no lag behind the planner's own line."""
     ramp = [0.05 * i for i in range(1, 21)]
-    held = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 0.0}), ramp)
-    smooth = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+    held = _planner_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 0.0}), ramp)
+    smooth = _planner_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
                                      "reference_smoothing.yaw_rate": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.yaw_rate_ref_shaped for o in smooth])
@@ -251,7 +256,7 @@ def test_where_the_planner_stops_turning_the_reference_bends_back_without_a_step
     comes back to it along a straight line within one more interval; no sample-to-sample change is larger than
     the ramp's own."""
     commands = [0.05 * i for i in range(1, 11)] + [0.5] * 6
-    outs = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+    outs = _planner_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
                                    "reference_smoothing.yaw_rate": 0.0}), commands)
     shaped = np.array([o.yaw_rate_ref_shaped for o in outs])
     assert shaped.max() <= 0.55 + 1e-9
@@ -277,8 +282,8 @@ def test_a_planner_accelerating_reaches_the_velocity_loop_as_a_ramp_without_a_20
     velocity loop's proportional term moves the wheel torques in a 20 Hz sawtooth; continued along the slope,
     v_ref is the ramp itself."""
     ramp = [0.003 * i for i in range(1, 41)]
-    held = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.0}), ramp)
-    smooth = _velocity_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.15,
+    held = _velocity_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.0}), ramp)
+    smooth = _velocity_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.velocity": 0.15,
                                       "reference_smoothing.velocity": 0.0}), ramp)
     t = np.array([o.stamp for o in smooth])
     shaped = np.array([o.velocity_ref_shaped for o in smooth])
@@ -323,11 +328,11 @@ def test_the_yaw_rate_setpoint_weight_scales_the_proportional_kick_of_a_step():
 def test_the_first_command_from_rest_starts_a_ramp_and_a_large_one_is_a_step():
     """A planner's first turn command (0.05 rad/s, its slew limit from 0) is eased in at the hold's slope
     instead of kicking the differential torque; a first command beyond the hold's reach is obeyed at once."""
-    c = make(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0})
+    c = without_jerk(**{"reference_hold.yaw_rate": 1.25, "reference_smoothing.yaw_rate": 0.0})
     shaped = [o.yaw_rate_ref_shaped for o in _planner_stream(c, [0.05])]
     assert shaped[0] == 0.0 and shaped[-1] == pytest.approx(0.05)
     assert np.abs(np.diff([0.0, *shaped])).max() <= 1.25 / 200.0 + 1e-9
-    big = make(**{"reference_hold.yaw_rate": 1.25})
+    big = without_jerk(**{"reference_hold.yaw_rate": 1.25})
     assert _planner_stream(big, [0.5])[0].yaw_rate_ref_shaped == 0.5
 
 
@@ -337,9 +342,9 @@ def test_where_the_planners_yaw_acceleration_reverses_the_bend_reaches_the_loop_
     * 5 ms on each wheel, ~0.07 N·m in make demo); averaged over reference_smoothing's 0.15 s it bends over 30
     samples instead, and lags the hold's line by half the window on the straight parts."""
     weave = [0.05 * i for i in range(1, 11)] + [0.5 - 0.05 * i for i in range(1, 11)]
-    hold = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+    hold = _planner_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
                                    "reference_smoothing.yaw_rate": 0.0}), weave)
-    rounded = _planner_stream(make(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
+    rounded = _planner_stream(without_jerk(**{**CATCH_UP_AT_ONCE, "reference_hold.yaw_rate": 1.25,
                                       "reference_smoothing.yaw_rate": 0.15}), weave)
     # With the robot not turning (open loop), each sample's torque change is the ramp's own plus the bend's:
     # the bend is the change of that change (on a robot that follows the ramp, all that is left of it).
@@ -386,9 +391,65 @@ def test_where_the_planners_acceleration_reverses_the_default_hold_bends_a_third
     weave = [0.05 * i for i in range(1, 21)] + [1.0 - 0.05 * i for i in range(1, 21)]
     bends = {}
     for catch_up in (1.0, 3.0):
-        c = make(**{"reference_hold.yaw_rate": 1.25, "reference_hold.catch_up": catch_up})
+        c = without_jerk(**{"reference_hold.yaw_rate": 1.25, "reference_hold.catch_up": catch_up})
         shaped = np.array([o.yaw_rate_ref_shaped for o in _planner_stream(c, weave)])
         bends[catch_up] = np.abs(np.diff(shaped[100:], 2)).max() * 200.0  # [rad/s^2]: the slope's change in a sample
         assert shaped.max() <= 1.0 + 0.05 + 1e-6  # past the turn's top by at most one slope x interval
     assert bends[1.0] == pytest.approx(4.0, abs=1e-6)
     assert bends[3.0] == pytest.approx(2.0 * (1.0 + 1.0 / 3.0), abs=0.02)
+
+
+def test_a_jerk_limit_spreads_the_weaves_bend_over_samples_and_starts_it_at_once():
+    """Issue 35: the default hold bends by 2 x (1 + 1/3) rad/s^2 in one sample where a weave reverses (a jolt of
+    kp x 2.67 rad/s^2 x 5 ms = 0.046 N·m); under reference_jerk.yaw_rate 40 rad/s^3 the slope changes by at most
+    0.2 rad/s^2 a sample, starts to turn at the sample the hold does, leaves the hold's line by at most
+    bend^2 / (2 jerk) = 0.09 rad/s and is back on it within 3 bend / jerk = 0.2 s; the 0.15 s smoothing lags the
+    line by 0.07 rad/s all along every ramp instead."""
+    weave = [0.05 * i for i in range(1, 21)] + [1.0 - 0.05 * i for i in range(1, 21)]
+    lines = {}
+    for jerk in (0.0, 40.0):
+        c = make(**{"reference_hold.yaw_rate": 1.25, "reference_jerk.yaw_rate": jerk})
+        lines[jerk] = np.array([o.yaw_rate_ref_shaped for o in _planner_stream(c, weave)])
+    slopes = {jerk: np.diff(line) / DT for jerk, line in lines.items()}
+    bends = {jerk: np.abs(np.diff(slope)) for jerk, slope in slopes.items()}
+    assert bends[0.0][100:].max() == pytest.approx(2.0 * (1.0 + 1.0 / 3.0), abs=0.02)
+    assert bends[40.0].max() <= 40.0 * DT + 1e-6
+    first = int(np.argmax(bends[0.0][100:] > 1.0)) + 100  # where the hold reverses
+    assert bends[40.0][first] == pytest.approx(40.0 * DT, abs=1e-6)  # at once, as hard as it may
+    bend = bends[0.0][first]
+    off = np.abs(lines[40.0] - lines[0.0])
+    assert off.max() <= bend ** 2 / (2.0 * 40.0) + 1e-3
+    assert off[first + int(3.0 * bend / 40.0 / DT):].max() < 1e-6
+    # [rad] the heading it costs, at the start from rest and at the top together (the planner steers it back)
+    assert np.abs(np.cumsum(lines[40.0] - lines[0.0]) * DT).max() < 0.008
+
+
+def test_a_jerk_limit_follows_a_ramp_without_lag_and_lets_steps_and_silence_through_at_once():
+    ramp = [0.05 * i for i in range(1, 41)]
+    free = np.array([o.yaw_rate_ref_shaped for o in _planner_stream(make(**{"reference_jerk.yaw_rate": 0.0}), ramp)])
+    limited = np.array([o.yaw_rate_ref_shaped for o in _planner_stream(
+        make(**{"reference_jerk.yaw_rate": 40.0}), ramp)])
+    assert np.abs(limited[200:] - free[200:]).max() < 1e-3
+    c = make(**{"reference_jerk.yaw_rate": 40.0})
+    assert max(o.yaw_rate_ref_shaped for o in _planner_stream(c, [0.0, 0.5, 0.5])) == 0.5  # a step asked for
+    _planner_stream(c, [0.5 + 0.05 * i for i in range(1, 5)])
+    out = c.compute(1.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.0, cmd_vel_stale=True, command_stamp=0.2)
+    assert out.yaw_rate_ref_shaped == 0.0
+
+
+def test_a_velocity_jerk_limit_brings_the_collision_monitors_braking_within_rate_over_jerk():
+    """Under reference_rate.velocity 0.36 m/s^2 and reference_jerk.velocity 2 m/s^3, v_ref lowered by the
+    collision monitor turns to braking at the sample the limit comes, brakes at the full rate within (0.06 +
+    0.36) / 2 s (2 cm more stopping distance from 0.5 m/s than at once) and stops at 0, not past it."""
+    rate, jerk = 0.3621, 2.0
+    c = make(**{"reference_hold.velocity": 0.15, "reference_rate.velocity": rate, "reference_jerk.velocity": jerk})
+    outs = _velocity_stream(c, [0.003 * i for i in range(1, 41)], limit=lambda t: 0.0 if t > 1.5 else 1.0)
+    t = np.array([o.stamp for o in outs])
+    shaped = np.array([o.velocity_ref_shaped for o in outs])
+    slope = np.diff(shaped) / DT
+    assert np.abs(np.diff(slope)).max() <= jerk * DT + 1e-9
+    after = np.nonzero(t[1:] > 1.5)[0]
+    before = slope[after[0] - 1]  # the planner's 0.06 m/s^2
+    assert slope[after[0]] == pytest.approx(before - jerk * DT, abs=1e-9)  # turns at the sample the limit comes
+    assert slope[after[0] + math.ceil((before + rate) / (jerk * DT))] == pytest.approx(-rate, abs=1e-9)
+    assert shaped[-1] == pytest.approx(0.0, abs=1e-9) and shaped.min() >= -jerk * DT * DT  # at most a sample past

@@ -16,6 +16,7 @@ it directly, on a settings vector (C_*), a memory vector (K_*) and an output vec
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -32,7 +33,7 @@ SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
     "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
     "reference_hold.velocity", "reference_hold.catch_up", "reference_smoothing.yaw_rate", "reference_smoothing.velocity",
-    "velocity.measurement_filter",
+    "reference_jerk.velocity", "reference_jerk.yaw_rate", "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -50,6 +51,8 @@ C_V_HOLD = SETTINGS_LAYOUT["reference_hold.velocity"]  # [m/s^2]
 C_HOLD_CATCH_UP = SETTINGS_LAYOUT["reference_hold.catch_up"]  # [command intervals]
 C_W_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.yaw_rate"]  # [s]
 C_V_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.velocity"]  # [s]
+C_V_JERK = SETTINGS_LAYOUT["reference_jerk.velocity"]  # [m/s^3]
+C_W_JERK = SETTINGS_LAYOUT["reference_jerk.yaw_rate"]  # [rad/s^3]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -71,7 +74,8 @@ MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp:
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
 MEMORY_LAYOUT = Layout((
     "last_stamp", "has_last", "common_saturated", "differential_saturated", "fallen", "enabled",
-    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
+    "velocity_ref_shaped", "yaw_rate_ref_shaped", "velocity_ref_slope", "yaw_rate_ref_slope", "velocity_ref_held",
+    "yaw_rate_ref_held", "velocity_filtered", "yaw_rate_filtered", "filters_ready",
     ("yaw_rate_hold", N_HOLD), ("velocity_hold", N_HOLD), "lqr_position", "lqr_heading", ("velocity", N_MEMORY),
     ("pitch", N_MEMORY), ("yaw_rate", N_MEMORY),
 ))
@@ -83,6 +87,10 @@ K_FALLEN = MEMORY_LAYOUT["fallen"]
 K_ENABLED = MEMORY_LAYOUT["enabled"]
 K_V_SHAPED = MEMORY_LAYOUT["velocity_ref_shaped"]
 K_W_SHAPED = MEMORY_LAYOUT["yaw_rate_ref_shaped"]
+K_V_SLOPE = MEMORY_LAYOUT["velocity_ref_slope"]  # [m/s^2] the shaped v_ref's slope (reference_jerk)
+K_W_SLOPE = MEMORY_LAYOUT["yaw_rate_ref_slope"]  # [rad/s^2]
+K_V_HELD = MEMORY_LAYOUT["velocity_ref_held"]  # the held v_ref of the sample before
+K_W_HELD = MEMORY_LAYOUT["yaw_rate_ref_held"]
 K_V_FILTERED = MEMORY_LAYOUT["velocity_filtered"]
 K_W_FILTERED = MEMORY_LAYOUT["yaw_rate_filtered"]
 K_FILTERS_READY = MEMORY_LAYOUT["filters_ready"]
@@ -302,6 +310,12 @@ def _smoothed(h, value, samples):
 
 
 @inline_kernel
+def _ramping(h, reference, stale):
+    """Whether the hold `h` follows the planner's ramp: not a step, not stale, not lowered since it came."""
+    return not stale and h[H_HAS] != 0.0 and h[H_RAMP] != 0.0 and reference == h[H_COMMAND]
+
+
+@inline_kernel
 def _smoothing_samples(window, period):
     """[samples] a smoothing window [s] at the control period (at least 1: none)."""
     return max(1, min(SMOOTHING_SAMPLES, int(window / period + 0.5)))
@@ -315,6 +329,35 @@ def _rate_limit(k, shaped, reference, rate, dt):
         k[shaped] = reference
     else:
         k[shaped] += _clip(reference - k[shaped], rate * dt)
+
+
+@inline_kernel
+def _shape(k, shaped, slope, held_before, held, rate, jerk, ramping, dt):
+    """Move k[shaped] towards the held reference, its slope limited to `rate` (0: none) and the slope's change
+    to `jerk` * dt (0: none) while the hold follows the planner's ramp (`ramping`) or `rate` makes a ramp of
+    whatever comes. The wheel torque's
+    change per sample is the loop's K_p times the gap between the reference's and the measurement's slopes:
+    where the held reference bends (the planner reverses its turn) that gap is the whole bend at once, under
+    the jerk limit at most the jerk times the loop's time constant. The slope goes on along the held
+    reference's own, plus what closes the gap in the shortest time the jerk allows without passing it: a
+    ramp passes without lag, a bend starts at once and is spread over bend / jerk seconds. Without `rate`, a step
+    asked for, a stale command and the collision monitor's limit (not ramping) pass at once."""
+    held_slope = (held - k[held_before]) / dt
+    gap = k[held_before] - k[shaped]  # before this sample's move of the held reference
+    k[held_before] = held
+    if jerk <= 0.0 or not (ramping or rate > 0.0):
+        before = k[shaped]
+        _rate_limit(k, shaped, held, rate, dt)
+        k[slope] = (k[shaped] - before) / dt if rate > 0.0 else 0.0  # a jump is not a slope to go on along
+        return
+    # the slope from which steps of jerk * dt a sample down to 0 cover the gap (sqrt(2 jerk gap) in the limit)
+    step = jerk * dt
+    braking = 0.5 * (math.sqrt(step * step + 8.0 * jerk * abs(gap)) - step)
+    wanted = held_slope + math.copysign(min(braking, abs(gap) / dt), gap)
+    if rate > 0.0:
+        wanted = _clip(wanted, rate)
+    k[slope] += _clip(wanted - k[slope], jerk * dt)
+    k[shaped] += k[slope] * dt
 
 
 @inline_kernel
@@ -394,11 +437,13 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
             k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
-        _rate_limit(k, K_V_SHAPED, held_velocity, c[C_V_RATE], dt)
+        _shape(k, K_V_SHAPED, K_V_SLOPE, K_V_HELD, held_velocity, c[C_V_RATE], c[C_V_JERK],
+               _ramping(k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, cmd_vel_stale), dt)
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
             k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_W_SMOOTHING], c[C_PERIOD]))
-        _rate_limit(k, K_W_SHAPED, held_yaw_rate, c[C_W_RATE], dt)
+        _shape(k, K_W_SHAPED, K_W_SLOPE, K_W_HELD, held_yaw_rate, c[C_W_RATE], c[C_W_JERK],
+               _ramping(k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, cmd_vel_stale), dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.
         velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)
         yaw_rate = _low_pass(k, K_W_FILTERED, yaw_rate, c[C_W_MEASUREMENT_FILTER], dt)

@@ -73,6 +73,14 @@ CONTROL_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("reference_smoothing.velocity", 0.0, "the same for v_ref: the velocity loop sees the mean of the"
               " held v_ref over this window while the planner ramps it; the collision monitor's limit applies"
               " at once; at most 64 control periods; 0: none", "s", 0.0, 0.32),
+    ParamSpec("reference_jerk.yaw_rate", 40.0, "largest rate of change of the slope of the omega_ref the yaw-rate"
+              " loop sees: where the held omega_ref bends (the planner reverses its turn) the bend starts at once"
+              " and is spread over bend / jerk seconds instead of one jolt of the wheel torques of K_p times the"
+              " bend times the sample time; a ramp passes as it is, a step and a stale command at once; 0: no limit",
+              "rad/s³", 0.0, 10000.0),
+    ParamSpec("reference_jerk.velocity", 2.0, "the same for v_ref, also on the ramps of reference_rate.velocity"
+              " (a step, a stale command, the collision monitor's limit: their deceleration comes within"
+              " reference_rate.velocity / jerk seconds); 0: no limit", "m/s³", 0.0, 10000.0),
     ParamSpec("max_pitch_ref", 0.15, "limit of the velocity loop's pitch reference", "rad", 0.0, 0.6,
               low_open=True),
     ParamSpec("pitch_offset", 0.0, "pitch of the balanced robot at rest (centre of mass not above the axle)",
