@@ -453,3 +453,26 @@ def test_a_velocity_jerk_limit_brings_the_collision_monitors_braking_within_rate
     assert slope[after[0]] == pytest.approx(before - jerk * DT, abs=1e-9)  # turns at the sample the limit comes
     assert slope[after[0] + math.ceil((before + rate) / (jerk * DT))] == pytest.approx(-rate, abs=1e-9)
     assert shaped[-1] == pytest.approx(0.0, abs=1e-9) and shaped.min() >= -jerk * DT * DT  # at most a sample past
+
+
+def test_after_the_collision_monitor_lets_go_v_ref_returns_at_the_release_rate_and_a_step_asked_for_does_not():
+    """The monitor lowers v_ref to 0.3 m/s while an obstacle is in the way and lets go in one step when it has
+    gone; the robot leans into that step (|pitch| 0.045 rad in crowd_crossing at reference_rate.velocity 0.36
+    m/s^2): v_ref climbs back at collision_monitor.release_acceleration (0.1 m/s^2) instead. Once it has caught
+    up, a step the planner asks for ramps at reference_rate.velocity again."""
+    def run(release):
+        c = make(**{"collision_monitor.release_acceleration": release})
+        outs = _velocity_stream(c, [0.5] * 80, limit=lambda t: 0.3 if 0.5 < t < 1.2 else 1.0)
+        t = np.array([o.stamp for o in outs])
+        return c, t, np.array([o.velocity_ref_shaped for o in outs])
+    for release, rate in ((0.1, 0.1), (0.0, 0.3621)):
+        c, t, shaped = run(release)
+        rising = np.diff(shaped) / DT
+        after = t[1:] > 1.2
+        assert rising[after].max() == pytest.approx(rate, abs=1e-6)  # the climb back, at its rate at most
+        assert shaped[-1] == pytest.approx(0.5, abs=1e-6)
+    # caught up: a step asked for (a new command 0.5 -> 0.6) ramps at reference_rate.velocity
+    c, t, shaped = run(0.1)
+    outs = [c.compute(4.005 + 0.005 * i, 0.6, 0.0, 0.5, 0.0, 0.0, 0.0, command_stamp=4.005) for i in range(100)]
+    step = np.diff([o.velocity_ref_shaped for o in outs]) / DT
+    assert step.max() == pytest.approx(0.3621, abs=1e-6)

@@ -33,7 +33,8 @@ SETTINGS_LAYOUT = Layout((
     "period", "max_velocity_ref", "max_yaw_rate_ref", "pitch_offset", "max_wheel_torque", "fall_pitch",
     "max_sample_gap", "reference_rate.velocity", "reference_rate.yaw_rate", "reference_hold.yaw_rate",
     "reference_hold.velocity", "reference_hold.catch_up", "reference_smoothing.yaw_rate", "reference_smoothing.velocity",
-    "reference_jerk.velocity", "reference_jerk.yaw_rate", "velocity.measurement_filter",
+    "reference_jerk.velocity", "reference_jerk.yaw_rate", "collision_monitor.release_acceleration",
+    "velocity.measurement_filter",
     "yaw_rate.measurement_filter", "control_law", "lqr.setpoint_weight", ("lqr", 6), ("velocity", N_GAINS),
     ("pitch", N_GAINS), ("yaw_rate", N_GAINS),
 ))
@@ -53,6 +54,7 @@ C_W_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.yaw_rate"]  # [s]
 C_V_SMOOTHING = SETTINGS_LAYOUT["reference_smoothing.velocity"]  # [s]
 C_V_JERK = SETTINGS_LAYOUT["reference_jerk.velocity"]  # [m/s^3]
 C_W_JERK = SETTINGS_LAYOUT["reference_jerk.yaw_rate"]  # [rad/s^3]
+C_V_RELEASE = SETTINGS_LAYOUT["collision_monitor.release_acceleration"]  # [m/s^2]
 C_V_MEASUREMENT_FILTER = SETTINGS_LAYOUT["velocity.measurement_filter"]
 C_W_MEASUREMENT_FILTER = SETTINGS_LAYOUT["yaw_rate.measurement_filter"]
 C_CONTROLLER = SETTINGS_LAYOUT["control_law"]  # 0: the cascaded PID, 1: LQR
@@ -64,11 +66,12 @@ C_PITCH = SETTINGS_LAYOUT["pitch"]
 C_YAW_RATE = SETTINGS_LAYOUT["yaw_rate"]
 N_SETTINGS = len(SETTINGS_LAYOUT)
 # A command hold's memory (_command_hold): the last command, its stamp, whether there was one, the
-# straight segment the held reference follows (from, to, start, end), whether that is a ramp, and the
+# straight segment the held reference follows (from, to, start, end), whether that is a ramp, the
 # smoothing's ring of the last SMOOTHING_SAMPLES held values (how many it holds, where the next goes, the
-# value before the first of them).
+# value before the first of them), and whether the collision monitor has lowered the command since the
+# shaped reference last caught up with it.
 SMOOTHING_SAMPLES = 64
-H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END, H_RAMP, H_COUNT, H_NEXT, H_BASE, H_RING = range(12)
+H_COMMAND, H_STAMP, H_HAS, H_FROM, H_TO, H_START, H_END, H_RAMP, H_COUNT, H_NEXT, H_BASE, H_LOWERED, H_RING = range(13)
 N_HOLD = H_RING + SMOOTHING_SAMPLES
 MAX_HOLD_INTERVAL = 0.25  # [s] commands further apart than this are not a ramp: each is held as it is
 # Memory vector: the loop's state, then the three PIDs' memories (pid.MEMORY_LAYOUT each).
@@ -285,6 +288,7 @@ def _command_hold(h, reference, command_stamp, stamp, max_slope, catch_up, smoot
         h[H_STAMP] = command_stamp
         h[H_HAS] = 1.0
     elif reference != h[H_COMMAND]:
+        h[H_LOWERED] = 1.0
         return _smoothed(h, reference, 1)  # changed since it came (the collision monitor lowered it): at once
     return _smoothed(h, _segment_at(h, stamp), smoothing if h[H_RAMP] != 0.0 else 1)
 
@@ -313,6 +317,22 @@ def _smoothed(h, value, samples):
 def _ramping(h, reference, stale):
     """Whether the hold `h` follows the planner's ramp: not a step, not stale, not lowered since it came."""
     return not stale and h[H_HAS] != 0.0 and h[H_RAMP] != 0.0 and reference == h[H_COMMAND]
+
+
+@inline_kernel
+def _release_rate(h, reference, held, shaped, rate, release):
+    """The rate limit of v_ref this sample: `release` [m/s^2] (0: none) while it rises back in magnitude
+    towards the command after the collision monitor lowered it (the monitor lets go of its limit in one
+    step when the obstacle leaves the way, and under reference_rate.velocity alone the robot would lean into
+    that step: |pitch| 0.045 rad), else `rate`. The hold's H_LOWERED ends once the shaped reference has
+    caught up with a command the monitor no longer lowers."""
+    if h[H_LOWERED] == 0.0 or release <= 0.0:
+        return rate
+    if held * shaped >= 0.0 and abs(held) > abs(shaped):
+        return release if rate <= 0.0 else min(rate, release)
+    if reference == h[H_COMMAND] and abs(held - shaped) <= 1e-9:
+        h[H_LOWERED] = 0.0
+    return rate
 
 
 @inline_kernel
@@ -413,6 +433,7 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
             k[hold_at + H_HAS] = 0.0
             k[hold_at + H_COUNT] = 0.0
             k[hold_at + H_BASE] = 0.0
+            k[hold_at + H_LOWERED] = 0.0
     velocity_ref = _clip(velocity_ref, c[C_MAX_V_REF])
     yaw_rate_ref = _clip(yaw_rate_ref, c[C_MAX_W_REF])
     if abs(pitch - c[C_PITCH_OFFSET]) > c[C_FALL_PITCH] and k[K_FALLEN] == 0.0:
@@ -437,8 +458,10 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
             k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
-        _shape(k, K_V_SHAPED, K_V_SLOPE, K_V_HELD, held_velocity, c[C_V_RATE], c[C_V_JERK],
-               _ramping(k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, cmd_vel_stale), dt)
+        v_hold = k[K_V_HOLD:K_V_HOLD + N_HOLD]
+        _shape(k, K_V_SHAPED, K_V_SLOPE, K_V_HELD, held_velocity,
+               _release_rate(v_hold, velocity_ref, held_velocity, k[K_V_SHAPED], c[C_V_RATE], c[C_V_RELEASE]),
+               c[C_V_JERK], _ramping(v_hold, velocity_ref, cmd_vel_stale), dt)
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
             k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_W_SMOOTHING], c[C_PERIOD]))

@@ -40,6 +40,10 @@ MONITOR_SPECS: tuple[ParamSpec, ...] = (
                   low_open=True),
         ParamSpec("collision_monitor.reaction_time", 0.3, "time the robot drives on at its speed before it brakes"
                   " (a balancing robot leans back first)", "s", 0.0, 10.0),
+        ParamSpec("collision_monitor.release_acceleration", 0.1, "once the monitor has lowered the speed, the"
+                  " controller's v_ref returns to the command no faster than this (the limit lets go in one step"
+                  " when the obstacle leaves the way: the robot would lean into it); 0: under"
+                  " reference_rate.velocity only", "m/s²", 0.0, 100.0),
     ),
     ParamSpec("collision_monitor.obstacle_timeout", 1.0, "an obstacle list older than this (against the state's"
               " stamp) is not used: the monitor then passes commands as they are", "s", 0.01, 60.0),
