@@ -7,6 +7,7 @@ path: command admission, fall check, world). The issue's target is 50,000 single
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
@@ -34,6 +35,9 @@ def best_rate(fn, steps: int, repeats: int = 5) -> float:
 
 
 def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("json", nargs="?", help="write the figures to this file (make bench: results/dynamics.json)")
+    args = ap.parse_args()
     p = robot_params()
     s = dyn.initial_state(pitch=np.pi - 0.3)  # hanging: a long run stays in range
     work = dyn.new_work()
@@ -66,8 +70,8 @@ def main() -> int:
     target = 50_000
     ok = results["dynamics_steps_per_s_python_called"] >= target
     print(f"target >= {target:,} single-robot steps/s (python-called RK4 step): {'met' if ok else 'NOT met'}")
-    if len(sys.argv) > 1:
-        write_results(sys.argv[1], results)
+    if args.json:
+        write_results(args.json, results)
     return 0
 
 
