@@ -36,13 +36,12 @@ BEFORE = {  # the shipped controller before issue 17 (commit 29e32f1)
     "reference_rate.velocity": 0.0, "reference_rate.yaw_rate": 0.0, "reference_hold.yaw_rate": 0.0,
     "velocity.kp": 0.4529, "velocity.ki": 0.6938, "velocity.kd": 0.0, "velocity.setpoint_weight": 0.494,
     "velocity.derivative_filter": 0.02, "pitch.kp": 42.52, "pitch.ki": 0.0, "pitch.kd": 8.793,
-    "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293, "reference_jerk.yaw_rate": 0.0,
-    "reference_jerk.velocity": 0.0,
+    "pitch.derivative_filter": 0.005, "yaw_rate.kp": 3.429, "yaw_rate.ki": 0.9293,
+    "reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0,
 }
-HELD = {"reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0, "reference_jerk.yaw_rate": 0.0,
-        "reference_jerk.velocity": 0.0}
-V_STEPPED = {"reference_hold.velocity": 0.0, "reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0}
 NO_JERK = {"reference_jerk.yaw_rate": 0.0, "reference_jerk.velocity": 0.0}
+HELD = {**NO_JERK, "reference_hold.yaw_rate": 0.0, "reference_hold.velocity": 0.0}
+V_STEPPED = {**NO_JERK, "reference_hold.velocity": 0.0}
 CATCH_UP_1 = {**NO_JERK, "reference_hold.catch_up": 1.0}
 SMOOTHED = {**NO_JERK, "reference_smoothing.yaw_rate": 0.1, "reference_smoothing.velocity": 0.1}
 RAMP = {**NO_JERK, "reference_hold.yaw_rate": 0.0, "reference_rate.yaw_rate": 1.0}  # the planner's max_yaw_acceleration

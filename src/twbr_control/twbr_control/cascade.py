@@ -355,28 +355,28 @@ def _rate_limit(k, shaped, reference, rate, dt):
 def _shape(k, shaped, slope, held_before, held, rate, jerk, ramping, dt):
     """Move k[shaped] towards the held reference, its slope limited to `rate` (0: none) and the slope's change
     to `jerk` * dt (0: none) while the hold follows the planner's ramp (`ramping`) or `rate` makes a ramp of
-    whatever comes. The wheel torque's
-    change per sample is the loop's K_p times the gap between the reference's and the measurement's slopes:
-    where the held reference bends (the planner reverses its turn) that gap is the whole bend at once, under
-    the jerk limit at most the jerk times the loop's time constant. The slope goes on along the held
-    reference's own, plus what closes the gap in the shortest time the jerk allows without passing it: a
-    ramp passes without lag, a bend starts at once and is spread over bend / jerk seconds. Without `rate`, a step
-    asked for, a stale command and the collision monitor's limit (not ramping) pass at once."""
-    held_slope = (held - k[held_before]) / dt
-    gap = k[held_before] - k[shaped]  # before this sample's move of the held reference
+    whatever comes. The wheel torque's change per sample is the loop's K_p times the gap between the
+    reference's and the measurement's slopes: where the held reference bends (the planner reverses its turn)
+    that gap is the whole bend at once, under the jerk limit at most the jerk times the loop's time constant.
+    The slope goes on along the held reference's own, plus what closes the gap in the shortest time the jerk
+    allows without passing it: a ramp passes without lag, a bend starts at once and is spread over bend /
+    jerk seconds. Without `rate`, a step asked for, a stale command and the collision monitor's limit (not
+    ramping) pass at once."""
+    held_then = k[held_before]
     k[held_before] = held
     if jerk <= 0.0 or not (ramping or rate > 0.0):
         before = k[shaped]
         _rate_limit(k, shaped, held, rate, dt)
         k[slope] = (k[shaped] - before) / dt if rate > 0.0 else 0.0  # a jump is not a slope to go on along
         return
+    gap = held_then - k[shaped]  # before this sample's move of the held reference
     # the slope from which steps of jerk * dt a sample down to 0 cover the gap (sqrt(2 jerk gap) in the limit)
     step = jerk * dt
     braking = 0.5 * (math.sqrt(step * step + 8.0 * jerk * abs(gap)) - step)
-    wanted = held_slope + math.copysign(min(braking, abs(gap) / dt), gap)
+    wanted = (held - held_then) / dt + math.copysign(min(braking, abs(gap) / dt), gap)
     if rate > 0.0:
         wanted = _clip(wanted, rate)
-    k[slope] += _clip(wanted - k[slope], jerk * dt)
+    k[slope] += _clip(wanted - k[slope], step)
     k[shaped] += k[slope] * dt
 
 
