@@ -476,3 +476,15 @@ def test_after_the_collision_monitor_lets_go_v_ref_returns_at_the_release_rate_a
     outs = [c.compute(4.005 + 0.005 * i, 0.6, 0.0, 0.5, 0.0, 0.0, 0.0, command_stamp=4.005) for i in range(100)]
     step = np.diff([o.velocity_ref_shaped for o in outs]) / DT
     assert step.max() == pytest.approx(0.3621, abs=1e-6)
+
+
+def test_a_reset_forgets_the_shaped_slopes_so_the_ramps_start_again_from_rest():
+    """After a re-enable (or a fall, or time going backwards) the jerk-limited references start from 0 with a
+    slope of 0, not along the slope they had before: the first samples move by jerk x dt^2, then 3x, 6x, ..."""
+    c = make(**{"reference_jerk.velocity": 2.0, "reference_rate.velocity": 0.3621})
+    for k in range(20):  # mid-way into the step's ramp: its slope 0.2 m/s^2 and rising
+        c.compute(0.005 * k, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0)
+    c.set_enabled(True)
+    shaped = [c.compute(0.1 + 0.005 * k, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0).velocity_ref_shaped for k in range(1, 4)]
+    step = 2.0 * DT * DT
+    assert shaped == pytest.approx([step, 3 * step, 6 * step], rel=1e-9)
