@@ -455,18 +455,19 @@ def cascade_compute(c, k, out, stamp, velocity_ref, yaw_rate_ref, velocity, yaw_
         # The references are shaped before the loops see them: a cmd_vel step (each of a 20 Hz planner's
         # commands) then moves the proportional terms, and the torques, smoothly.
         # (no command: 0 at once, and the hold forgets the stream, so that the next command starts afresh)
-        held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
-            k[K_V_HOLD:K_V_HOLD + N_HOLD], velocity_ref, command_stamp, stamp, c[C_V_HOLD], c[C_HOLD_CATCH_UP],
-            _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
         v_hold = k[K_V_HOLD:K_V_HOLD + N_HOLD]
+        held_velocity = velocity_ref if cmd_vel_stale else _command_hold(
+            v_hold, velocity_ref, command_stamp, stamp, c[C_V_HOLD], c[C_HOLD_CATCH_UP],
+            _smoothing_samples(c[C_V_SMOOTHING], c[C_PERIOD]))
         _shape(k, K_V_SHAPED, K_V_SLOPE, K_V_HELD, held_velocity,
                _release_rate(v_hold, velocity_ref, held_velocity, k[K_V_SHAPED], c[C_V_RATE], c[C_V_RELEASE]),
                c[C_V_JERK], _ramping(v_hold, velocity_ref, cmd_vel_stale), dt)
+        w_hold = k[K_W_HOLD:K_W_HOLD + N_HOLD]
         held_yaw_rate = yaw_rate_ref if cmd_vel_stale else _command_hold(
-            k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD], c[C_HOLD_CATCH_UP],
+            w_hold, yaw_rate_ref, command_stamp, stamp, c[C_W_HOLD], c[C_HOLD_CATCH_UP],
             _smoothing_samples(c[C_W_SMOOTHING], c[C_PERIOD]))
         _shape(k, K_W_SHAPED, K_W_SLOPE, K_W_HELD, held_yaw_rate, c[C_W_RATE], c[C_W_JERK],
-               _ramping(k[K_W_HOLD:K_W_HOLD + N_HOLD], yaw_rate_ref, cmd_vel_stale), dt)
+               _ramping(w_hold, yaw_rate_ref, cmd_vel_stale), dt)
         # Encoder speeds move in whole counts: the outer loops may see them low-passed.
         velocity = _low_pass(k, K_V_FILTERED, velocity, c[C_V_MEASUREMENT_FILTER], dt)
         yaw_rate = _low_pass(k, K_W_FILTERED, yaw_rate, c[C_W_MEASUREMENT_FILTER], dt)
