@@ -166,15 +166,11 @@ def test_the_readme_s_people_figures_are_the_study_s():
         assert float(rate) == round(100 * people["layouts"][layout]["robust"]["success_rate"], 1), layout
     assert float(found[3]) == round(100 * people["layouts"]["clutter_movers"]["dwa"]["success_rate"], 1)
     assert float(found[4]) == round(100 * people["layouts"]["reactive_crowd"]["dwa"]["success_rate"], 1)
-    # and, where people.json predates the suite study and the README gives that study's figures beside
-    # it, the same layouts over the suite study's seeds, in the same order
-    suite = _result("suite.json")
-    longer = re.search(r"on reactive_crowd \(([0-9]+) seeds: ([0-9., ]+) %", text)
-    if longer is None:
-        return
-    assert int(longer[1]) == suite["runs_per_cell"]
-    rates = [float(r) for r in longer[2].split(", ")]
-    assert rates == [round(100 * suite["layouts"][layout]["robust"]["success_rate"], 1) for layout, _ in pairs]
+    sooner = re.search(r"arrives sooner \(people_flow ([0-9.]+) s against ([0-9.]+)", text)
+    assert sooner, "README.md lost the time to reach beside the people figures"
+    flow = people["layouts"]["people_flow"]
+    assert float(sooner[1]) == round(flow["dwa"]["time_to_reach_median_s"], 1)
+    assert float(sooner[2]) == round(flow["robust"]["time_to_reach_median_s"], 1)
 
 
 def test_the_suite_and_ablation_tables_docs_planner_shows_are_the_study_s():
