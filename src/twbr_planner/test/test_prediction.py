@@ -109,7 +109,7 @@ def test_the_look_ahead_sees_a_walker_stepping_round_a_post_into_the_robots_way(
                               cfg["prediction_relaxation_time"])
         samples = hypotheses(positions, velocities, paths, horizon, yielding.ROLLOUT_STEP)
         conflicts.append(yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.4, 0.0, 0.4, 0.0, math.nan, samples,
-                                                 velocities, radii, horizon)[0])
+                                                 velocities, radii, horizon))
         m = np.zeros(N_MEMORY)
         m[R_LAST_V] = 0.4
         conflicts.append(yielding.yield_command(a, m, 0.0, 0.0, 0.0, 0.4, 0.0, 10.0, 0.0, positions, velocities,

@@ -46,12 +46,12 @@ def conflict(a, obstacle, v0=0.6, v_goal=0.6, heading=math.nan):
     positions, velocities, radii = (np.array([obstacle[:2]], dtype=float), np.array([obstacle[2:4]], dtype=float),
                                     np.array([obstacle[4]], dtype=float))
     return yielding.first_conflict(a, 0.0, 0.0, 0.0, v0, 0.0, v_goal, 0.0, heading,
-                                   *lines(positions, velocities, radii), 5.0)[0]
+                                   *lines(positions, velocities, radii), 5.0)
 
 
 def test_a_rollout_meets_a_head_on_obstacle_when_they_touch_and_an_empty_world_never():
     a = settings(yield_uncertainty=0.0)
-    assert yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.6, 0.0, 0.6, 0.0, math.nan, *NO_OBSTACLE, 5.0)[0] == 5.0
+    assert yielding.first_conflict(a, 0.0, 0.0, 0.0, 0.6, 0.0, 0.6, 0.0, math.nan, *NO_OBSTACLE, 5.0) == 5.0
     # closing at 1.1 m/s from 4 m, touching at 0.3 + 0.3 + 0.1 (margin): (4 - 0.7) / 1.1 = 3.0 s
     assert conflict(a, (4.0, 0.0, -0.5, 0.0, 0.3)) == pytest.approx(3.0, abs=0.26)
 
@@ -81,7 +81,7 @@ def test_running_ahead_of_a_faster_walker_conflicts_later_but_overlaps_more_than
         conflicts, overlaps = [], []
         for v_goal, w_goal, heading in (ahead, aside):
             rollout = (a, 0.0, 0.0, 0.0, 0.3, 0.0, v_goal, w_goal, heading, *behind(back, speed), 6.5)
-            conflicts.append(yielding.first_conflict(*rollout)[0])
+            conflicts.append(yielding.first_conflict(*rollout))
             overlaps.append(yielding.overlap(*rollout)[0])
         assert conflicts[0] > conflicts[1], (back, speed, conflicts)
         assert overlaps[0] > 2.0 * overlaps[1], (back, speed, overlaps)
@@ -99,6 +99,58 @@ def test_a_nearer_overlap_weighs_more_and_a_clear_rollout_none():
     late_undiscounted = yielding.overlap(undiscounted, *rollout, *behind(2.0, 0.4), 6.5)[0]
     assert late_undiscounted / yielding.overlap(undiscounted, *rollout, *behind(2.0, 0.8), 6.5)[0] > late / soon
     assert yielding.overlap(a, *rollout, *NO_OBSTACLE, 6.5)[0] == 0.0
+
+
+def every_obstacle(a, start, command, samples, velocities, radii, horizon):
+    """(first conflict [s], overlap [m s]) of a rollout, each obstacle tried at every step, nothing skipped:
+    what the plan's table must not change."""
+    x, y, yaw, v, w = start
+    conflict, total = horizon, 0.0
+    for k in range(1, max(1, int(horizon / yielding.ROLLOUT_STEP + 0.5)) + 1):
+        x, y, yaw, v, w = yielding.rollout_step(a, x, y, yaw, v, w, *command)
+        t = k * yielding.ROLLOUT_STEP
+        for j in range(radii.shape[0]):
+            reach = yielding.predicted_reach(a, velocities, radii, j, t)
+            dx, dy, ex, ey = (x - samples[k - 1, j, 0], y - samples[k - 1, j, 1], x - samples[k - 1, j, 2],
+                              y - samples[k - 1, j, 3])
+            d2 = min(dx * dx + dy * dy, ex * ex + ey * ey)
+            if d2 < reach * reach:
+                total += (reach - math.sqrt(d2)) * yielding.ROLLOUT_STEP * math.exp(-t / 3.0)
+                if np.hypot(*velocities[j]) >= 1e-3:
+                    conflict = min(conflict, t - yielding.ROLLOUT_STEP)
+    return conflict, total
+
+
+def test_the_plans_table_skips_only_obstacles_that_change_nothing():
+    """A plan's table (reach_table) leaves out the obstacles no rollout can reach at a step: every rollout's
+    first conflict and depth are the ones found trying every obstacle, and a rollout told to stop beyond a
+    depth stops past it or not at all."""
+    a = settings(yield_discount=3.0)
+    rng = np.random.default_rng(5)
+    horizon = 6.5
+    compared = 0
+    for _ in range(40):
+        n = int(rng.integers(1, 12))
+        positions = rng.uniform(-6.0, 6.0, (n, 2))
+        velocities = rng.uniform(-0.8, 0.8, (n, 2)) * (rng.random((n, 1)) < 0.7)
+        radii = rng.uniform(0.1, 1.0, n)
+        samples = straight_hypotheses(positions, velocities, horizon, yielding.ROLLOUT_STEP)
+        samples[:, :, 2:] += rng.normal(0.0, 0.3, samples[:, :, 2:].shape)  # a bent path beside each line
+        v0, w0 = rng.uniform(-0.2, 0.5), rng.uniform(-0.5, 0.5)
+        reach, near, counts = yielding.reach_table(a, 0.0, 0.0, 0.5, samples, velocities, radii, horizon)
+        assert counts.sum() < counts.size * n  # something is skipped
+        table = (reach, yielding.discounts(a, counts.shape[0]), near, counts)
+        for v_goal, w_goal, heading in ((0.5, 0.0, math.nan), (-0.25, 0.4, math.nan), (0.2, 0.0, 2.0)):
+            start, command = (0.0, 0.0, 0.1, v0, w0), (v_goal, w_goal, heading)
+            conflict, full = every_obstacle(a, start, command, samples, velocities, radii, horizon)
+            assert yielding.first_conflict(a, *start, *command, samples, velocities, radii, horizon) == conflict
+            assert yielding.conflict_along(a, *start, *command, samples, velocities, reach, near, counts) == conflict
+            depth = yielding.overlap_along(a, *start, *command, samples, *table, math.inf)[0]
+            assert depth == full
+            stopped = yielding.overlap_along(a, *start, *command, samples, *table, 0.5 * full)[0]
+            assert stopped == full if full == 0.0 else 0.5 * full < stopped <= full
+            compared += full > 0.0
+    assert compared >= 20  # most scenes put something in the candidates' way
 
 
 def test_overtaken_by_a_crowd_it_steps_out_of_their_lane():

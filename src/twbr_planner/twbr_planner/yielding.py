@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from twbr_common.geometry import wrap_angle
 from twbr_common.jit import inline_kernel, kernel
 from twbr_planner.apf import (
@@ -76,47 +78,105 @@ def predicted_reach(a, velocities, radii, j, t):
 
 
 @kernel
-def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon):
+def reach_table(a, x, y, speed_bound, samples, velocities, radii, horizon):
+    """What a plan's rollouts read at each ROLLOUT_STEP k of the horizon, computed once: each obstacle's
+    predicted reach [m] (K, n), and the obstacles a rollout from (x, y) no faster than speed_bound [m/s] can
+    come within reach of then (their indices in order, (K, n), and their count, (K,)). The others can neither
+    conflict with a rollout nor add to its overlap, so leaving them out changes no result, at a fraction of
+    the cost among many obstacles."""
+    steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
+    n = radii.shape[0]
+    reach = np.empty((steps, n))
+    near = np.empty((steps, n), dtype=np.int64)
+    counts = np.zeros(steps, dtype=np.int64)
+    for k in range(1, steps + 1):
+        t = k * ROLLOUT_STEP
+        travel = speed_bound * t + 1e-6  # the farthest a rollout's centre gets from (x, y) by then
+        count = 0
+        for j in range(n):
+            r = predicted_reach(a, velocities, radii, j, t)
+            reach[k - 1, j] = r
+            if math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) < r + travel:
+                near[k - 1, count] = j
+                count += 1
+        counts[k - 1] = count
+    return reach, near, counts
+
+
+@kernel
+def conflict_along(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, reach, near, counts):
     """[s] when a rollout towards (v_goal, w_goal) from (v0, w0) first comes within yield_margin of a moving
     obstacle's predicted disc (on its line or its predicted path, `samples`: prediction.hypotheses at
-    ROLLOUT_STEP over the horizon; grown by the uncertainty); `horizon` when it never does; and where the
-    rollout is then. A finite `heading` [rad] steers to it instead of holding w_goal. Static obstacles are
-    the field's and the safety filter's: they never start yielding (the candidates' `overlap` counts them)."""
-    steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
+    ROLLOUT_STEP over the horizon; grown by the uncertainty: reach_table); the horizon when it never does. A
+    finite `heading` [rad] steers to it instead of holding w_goal. Static obstacles are the field's and the
+    safety filter's: they never start yielding (the candidates' overlap counts them)."""
+    steps = counts.shape[0]
+    last = 0  # the rollout runs only up to the last step a moving obstacle can be met at
+    for k in range(1, steps + 1):
+        for c in range(counts[k - 1]):
+            j = near[k - 1, c]
+            if velocities[j, 0] * velocities[j, 0] + velocities[j, 1] * velocities[j, 1] >= MOVING * MOVING:
+                last = k
     v = v0
     w = w0
-    for k in range(1, steps + 1):
+    for k in range(1, last + 1):
         x, y, yaw, v, w = rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading)
-        t = k * ROLLOUT_STEP
-        for j in range(radii.shape[0]):
-            vx = velocities[j, 0]
-            vy = velocities[j, 1]
-            if vx * vx + vy * vy < MOVING * MOVING:
+        for c in range(counts[k - 1]):
+            j = near[k - 1, c]
+            if velocities[j, 0] * velocities[j, 0] + velocities[j, 1] * velocities[j, 1] < MOVING * MOVING:
                 continue
-            reach = predicted_reach(a, velocities, radii, j, t)
-            if nearer_distance2(samples, k - 1, j, x, y) < reach * reach:
-                return t - ROLLOUT_STEP, x, y  # the last instant known clear
-    return horizon, x, y
+            r = reach[k - 1, j]
+            if nearer_distance2(samples, k - 1, j, x, y) < r * r:
+                return (k - 1) * ROLLOUT_STEP  # the last instant known clear
+    return steps * ROLLOUT_STEP
+
+
+@kernel
+def first_conflict(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon):
+    """[s] conflict_along of one rollout towards (v_goal, w_goal), its table made for it alone; `horizon` when
+    it never conflicts."""
+    reach, near, counts = reach_table(a, x, y, max(abs(v0), abs(v_goal)), samples, velocities, radii, horizon)
+    t = conflict_along(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, reach, near, counts)
+    return horizon if t >= counts.shape[0] * ROLLOUT_STEP else t
+
+
+@kernel
+def discounts(a, steps):
+    """(K,) each ROLLOUT_STEP's weight in the overlap, exp(-t / yield_discount)."""
+    weight = np.empty(steps)
+    for k in range(1, steps + 1):
+        weight[k - 1] = math.exp(-k * ROLLOUT_STEP / a[A_YIELD_DISCOUNT])
+    return weight
+
+
+@kernel
+def overlap_along(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, reach, weight, near, counts, beyond):
+    """[m s] how deep and how long a rollout (as conflict_along's, but against every obstacle) goes into the
+    predicted discs, each step's depth weighted by its discount; and where the rollout ends. Once the depth
+    passes `beyond` [m s] the rollout stops there (a candidate that cannot win any more: the depth only
+    grows), its depth so far returned."""
+    v = v0
+    w = w0
+    total = 0.0
+    for k in range(1, weight.shape[0] + 1):
+        x, y, yaw, v, w = rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading)
+        for c in range(counts[k - 1]):
+            j = near[k - 1, c]
+            r = reach[k - 1, j]
+            d2 = nearer_distance2(samples, k - 1, j, x, y)
+            if d2 < r * r:
+                total += (r - math.sqrt(d2)) * ROLLOUT_STEP * weight[k - 1]
+        if total > beyond:
+            break
+    return total, x, y
 
 
 @kernel
 def overlap(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, velocities, radii, horizon):
-    """[m s] how deep and how long a rollout (as first_conflict's, but against every obstacle) goes into the
-    predicted discs, each step's depth weighted by exp(-t / yield_discount); and where the rollout ends."""
-    steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
-    v = v0
-    w = w0
-    total = 0.0
-    for k in range(1, steps + 1):
-        x, y, yaw, v, w = rollout_step(a, x, y, yaw, v, w, v_goal, w_goal, heading)
-        t = k * ROLLOUT_STEP
-        weight = math.exp(-t / a[A_YIELD_DISCOUNT])
-        for j in range(radii.shape[0]):
-            reach = predicted_reach(a, velocities, radii, j, t)
-            d2 = nearer_distance2(samples, k - 1, j, x, y)
-            if d2 < reach * reach:
-                total += (reach - math.sqrt(d2)) * ROLLOUT_STEP * weight
-    return total, x, y
+    """[m s] overlap_along of one rollout towards (v_goal, w_goal), its table made for it alone."""
+    reach, near, counts = reach_table(a, x, y, max(abs(v0), abs(v_goal)), samples, velocities, radii, horizon)
+    return overlap_along(a, x, y, yaw, v0, w0, v_goal, w_goal, heading, samples, reach,
+                         discounts(a, counts.shape[0]), near, counts, math.inf)
 
 
 @kernel
@@ -155,12 +215,17 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
     v0 = m[R_LAST_V]
     w0 = m[R_LAST_OMEGA]
     samples = hypotheses(positions, velocities, paths, horizon, ROLLOUT_STEP)
-    if first_conflict(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, radii,
-                      horizon)[0] >= horizon:
+    # every rollout's speed stays between v0 and its goal (the field's, or v_max forward, BACK_SHARE of it back)
+    reach, near, counts = reach_table(a, x, y, max(abs(v0), abs(v_nominal), a[A_V_MAX]), samples, velocities,
+                                      radii, horizon)
+    steps = counts.shape[0]
+    if conflict_along(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, reach, near,
+                      counts) >= steps * ROLLOUT_STEP:
         return v_nominal, omega_nominal, False  # no moving obstacle in the way: the field's command stands
     # the rest is judged against every obstacle: backing away from a person must not back into a wall
-    best, ex, ey = overlap(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, velocities, radii,
-                           horizon)
+    weight = discounts(a, steps)
+    best, ex, ey = overlap_along(a, x, y, yaw, v0, w0, v_nominal, omega_nominal, math.nan, samples, reach, weight,
+                                 near, counts, math.inf)
     best_v = v_nominal
     best_w = omega_nominal
     best_cost = math.hypot(target_x - ex, target_y - ey)
@@ -175,8 +240,9 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
                 else:
                     heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
                     cw = steer_to(a, yaw, heading)
-                depth, ex, ey = overlap(a, x, y, yaw, v0, w0, cv, cw, heading, samples, velocities, radii,
-                                        horizon)
+                # one deeper than best + 1e-9 is refused below whatever its end: its rollout stops there
+                depth, ex, ey = overlap_along(a, x, y, yaw, v0, w0, cv, cw, heading, samples, reach, weight,
+                                              near, counts, best + 1e-9)
                 # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
                 cost = math.hypot(target_x - ex, target_y - ey) + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
                 if depth < best - 1e-9 or (depth <= best + 1e-9 and cost < best_cost):
