@@ -89,11 +89,12 @@ def test_a_walker_crossing_ahead_is_passed_clear_and_sooner_than_the_field_alone
 
 
 def test_the_obstacles_out_of_reach_change_no_rollout():
-    """within_reach keeps every obstacle that can change a rollout's admissibility or its capped clearance:
-    on random scenes (discs and walkers up to 12 m off), every rollout of the grid over the window's horizon
-    has the same contact time and the same clearance capped at window_clearance_cap with the kept obstacles
-    as with all of them, and some scenes do leave obstacles out."""
-    from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, within_reach
+    """within_reach, and the plan's table of each step's obstacles (gap_table), keep every obstacle that can
+    change a rollout's admissibility or its capped clearance: on random scenes (discs and walkers up to 12 m
+    off), every rollout of the grid over the window's horizon has the same contact time and the same
+    clearance capped at window_clearance_cap with the kept obstacles as with all of them (and stopped at its
+    contact, the same contact), and some scenes do leave obstacles out."""
+    from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, gap_table, rollout_among, within_reach
 
     cfg = settings()
     a = vector(cfg)
@@ -109,6 +110,8 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
         near = within_reach(a, 0.0, 0.0, v0, positions, velocities, radii, horizon, max(cap, margin))
         left_out += n - len(near)
         paths = lines(positions, velocities, radii)
+        steps_near, steps_count = gap_table(a, 0.0, 0.0, v0, paths, radii, max(cap, margin))
+        left_out += steps_count.size * n - steps_count.sum()
         for i in range(V_SAMPLES):
             for k in range(OMEGA_SAMPLES):
                 v_goal, w_goal = candidate(a, cfg["v_max"], i, k)
@@ -117,4 +120,10 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
                 kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths[:, near], radii[near], horizon,
                                margin)
                 assert kept[1] == every[1] and min(kept[0], cap) == min(every[0], cap)
+                for until_contact in (False, True):
+                    stepped = rollout_among(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths, radii, steps_near,
+                                            steps_count, horizon, margin, until_contact)
+                    assert stepped[1] == every[1]
+                    if not until_contact or every[1] == math.inf:
+                        assert min(stepped[0], cap) == min(every[0], cap)
     assert left_out > 0

@@ -88,11 +88,43 @@ def within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond):
 
 
 @kernel
-def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margin):
-    """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
-    acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles on their lines
-    or their predicted paths (`samples`: prediction.hypotheses at ROLLOUT_STEP over the horizon; inf without
-    obstacles) and when it first falls below `margin` [m] (inf never)."""
+def gap_table(a, x, y, v0, samples, radii, beyond):
+    """(near (K, n), counts (K,)): at each ROLLOUT_STEP k, the obstacles (indices in order, and their count)
+    whose footprint gap to a rollout from (x, y) [m] starting at v0 [m/s] can be below `beyond` [m] then (on
+    their lines or predicted paths, `samples`). The others can change neither a rollout's contact with a
+    margin up to `beyond` nor its clearance capped at `beyond`: a plan's table, made once for its grid."""
+    steps = samples.shape[0]
+    n = radii.shape[0]
+    speed_bound = max(abs(v0), a[A_V_MAX])  # a rollout's speed stays between v0 and its goal
+    near = np.empty((steps, n), dtype=np.int64)
+    counts = np.zeros(steps, dtype=np.int64)
+    for k in range(1, steps + 1):
+        travel = speed_bound * k * ROLLOUT_STEP + 1e-6
+        count = 0
+        for j in range(n):
+            if math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) - radii[j] - a[A_ROBOT_RADIUS] < beyond + travel:
+                near[k - 1, count] = j
+                count += 1
+        counts[k - 1] = count
+    return near, counts
+
+
+@kernel
+def every_obstacle(samples, radii):
+    """gap_table's (near, counts) that keeps every obstacle at every step."""
+    near = np.empty((samples.shape[0], radii.shape[0]), dtype=np.int64)
+    for k in range(samples.shape[0]):
+        for j in range(radii.shape[0]):
+            near[k, j] = j
+    return near, np.full(samples.shape[0], radii.shape[0], dtype=np.int64)
+
+
+@kernel
+def rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, counts, horizon, margin,
+                  until_contact):
+    """rollout against the obstacles of each step's row of (near, counts) (gap_table); with `until_contact`
+    it stops at the first contact (for a caller that refuses any rollout with one), its clearance and end
+    pose then those of that instant."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
@@ -102,12 +134,26 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margi
     for k in range(1, steps + 1):
         x, y, yaw, v, w = drive(a, x, y, yaw, v, w, v_goal, w_goal, ROLLOUT_STEP)
         t = k * ROLLOUT_STEP
-        for j in range(radii.shape[0]):
+        for c in range(counts[k - 1]):
+            j = near[k - 1, c]
             gap = math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) - radii[j] - robot_radius
             clearance = min(clearance, gap)
             if gap < margin and contact == math.inf:
                 contact = t
+        if until_contact and contact < math.inf:
+            break
     return clearance, contact, x, y, yaw
+
+
+@kernel
+def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margin):
+    """(clearance, contact time, end x, end y, end yaw): drive towards (v_goal, w_goal) from (v0, w0) at the
+    acceleration limits for `horizon` [s]; the smallest footprint clearance to the obstacles on their lines
+    or their predicted paths (`samples`: prediction.hypotheses at ROLLOUT_STEP over the horizon; inf without
+    obstacles) and when it first falls below `margin` [m] (inf never)."""
+    near, counts = every_obstacle(samples, radii)
+    return rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, counts, horizon, margin,
+                         False)
 
 
 @kernel
@@ -139,11 +185,13 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     near = within_reach(a, x, y, v0, positions, velocities, radii, a[A_DWA_HORIZON], max(cap, a[A_SAFETY_MARGIN]))
     near_r = radii[near]
     samples = straight_hypotheses(positions[near], velocities[near], a[A_DWA_HORIZON], ROLLOUT_STEP)
+    steps_near, steps_count = gap_table(a, x, y, v0, samples, near_r, max(cap, a[A_SAFETY_MARGIN]))
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, ex, ey, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
-                                                       a[A_DWA_HORIZON], a[A_SAFETY_MARGIN])
+            clearance, contact, ex, ey, eyaw = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
+                                                             steps_near, steps_count, a[A_DWA_HORIZON],
+                                                             a[A_SAFETY_MARGIN], False)
             score = objective(a[A_DWA_HEADING_WEIGHT], a[A_DWA_CLEARANCE_WEIGHT], a[A_DWA_SPEED_WEIGHT], cap,
                               math.atan2(target_y - ey, target_x - ex) - eyaw, clearance, v_goal, a[A_V_MAX])
             # admissible first (no contact within the horizon), then the latest contact, then the score

@@ -31,7 +31,16 @@ from twbr_planner.apf import (
     R_LAST_V,
     top_speed,
 )
-from twbr_planner.dwa import OMEGA_SAMPLES, ROLLOUT_STEP, V_SAMPLES, candidate, objective, rollout, within_reach
+from twbr_planner.dwa import (
+    OMEGA_SAMPLES,
+    ROLLOUT_STEP,
+    V_SAMPLES,
+    candidate,
+    gap_table,
+    objective,
+    rollout_among,
+    within_reach,
+)
 from twbr_planner.prediction import MOVING, hypotheses
 from twbr_planner.yielding import in_reach
 
@@ -56,19 +65,22 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = top_speed(a, distance, moving_target)
-    near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, max(cap, a[A_WINDOW_MARGIN]))
+    beyond = max(cap, a[A_WINDOW_MARGIN])
+    near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond)
     near_r = radii[near]
     samples = hypotheses(positions[near], velocities[near], paths[near], horizon, ROLLOUT_STEP)
+    steps_near, steps_count = gap_table(a, x, y, v0, samples, near_r, beyond)
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, _, _, eyaw = rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
-                                                     horizon, a[A_WINDOW_MARGIN])
+            clearance, contact, _, _, eyaw = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
+                                                           steps_near, steps_count, horizon, a[A_WINDOW_MARGIN],
+                                                           True)
             if contact < math.inf:
-                continue  # not admissible
+                continue  # not admissible (its rollout stopped there)
             score = objective(a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT],
                               cap, alpha - eyaw, clearance, v_goal, a[A_V_MAX])
             if score > best_score:
