@@ -93,8 +93,16 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
     change a rollout's admissibility or its capped clearance: on random scenes (discs and walkers up to 12 m
     off), every rollout of the grid over the window's horizon has the same contact time and the same
     clearance capped at window_clearance_cap with the kept obstacles as with all of them (and stopped at its
-    contact, the same contact), and some scenes do leave obstacles out."""
-    from twbr_planner.dwa import OMEGA_SAMPLES, V_SAMPLES, candidate, gap_table, rollout_among, within_reach
+    contact, the same contact) and the end heading end_yaw gives, and some scenes do leave obstacles out."""
+    from twbr_planner.dwa import (
+        OMEGA_SAMPLES,
+        V_SAMPLES,
+        candidate,
+        end_yaw,
+        gap_table,
+        rollout_among,
+        within_reach,
+    )
 
     cfg = settings()
     a = vector(cfg)
@@ -120,6 +128,7 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
                 kept = rollout(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths[:, near], radii[near], horizon,
                                margin)
                 assert kept[1] == every[1] and min(kept[0], cap) == min(every[0], cap)
+                assert end_yaw(a, 0.3, 0.0, w_goal, horizon) == every[4]  # the window's bound's heading
                 for until_contact in (False, True):
                     stepped = rollout_among(a, 0.0, 0.0, 0.3, v0, 0.0, v_goal, w_goal, paths, radii, steps_near,
                                             steps_count, horizon, margin, until_contact)

@@ -57,10 +57,26 @@ def drive(a, x, y, yaw, v, w, v_goal, w_goal, dt):
     ramp_speed, the yaw rate within max_yaw_acceleration): every rollout's robot, the window's and the
     yielding's alike."""
     v = ramp_speed(a, v, v_goal, dt)
+    yaw, w = turn(a, yaw, w, w_goal, dt)
+    return x + v * math.cos(yaw) * dt, y + v * math.sin(yaw) * dt, yaw, v, w
+
+
+@inline_kernel
+def turn(a, yaw, w, w_goal, dt):
+    """(yaw, w) after dt [s] towards w_goal within max_yaw_acceleration: a rollout's heading, which its speed
+    and the obstacles do not change."""
     dw = a[A_MAX_YAW_ACCELERATION] * dt
     w = min(max(w_goal, w - dw), w + dw)
-    yaw += w * dt
-    return x + v * math.cos(yaw) * dt, y + v * math.sin(yaw) * dt, yaw, v, w
+    return yaw + w * dt, w
+
+
+@kernel
+def end_yaw(a, yaw, w0, w_goal, horizon):
+    """[rad] a rollout's heading at the end of `horizon` [s] (as `rollout` turns it), without driving it."""
+    w = w0
+    for _ in range(max(1, int(horizon / ROLLOUT_STEP + 0.5))):
+        yaw, w = turn(a, yaw, w, w_goal, ROLLOUT_STEP)
+    return yaw
 
 
 @kernel

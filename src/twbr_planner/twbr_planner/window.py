@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
     A_V_MAX,
@@ -36,6 +38,7 @@ from twbr_planner.dwa import (
     ROLLOUT_STEP,
     V_SAMPLES,
     candidate,
+    end_yaw,
     gap_table,
     objective,
     rollout_among,
@@ -73,16 +76,23 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     best_score = -math.inf
     best_v = v_nominal
     best_w = omega_nominal
+    weights = (a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT])
+    # a rollout's end heading depends on its yaw rate alone: the most a candidate can score is at its
+    # heading with the clearance at the cap, and one that cannot beat the best is not rolled out
+    end_yaws = np.empty(OMEGA_SAMPLES)
+    for k in range(OMEGA_SAMPLES):
+        end_yaws[k] = end_yaw(a, yaw, w0, candidate(a, v_top, 0, k)[1], horizon)
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
+            if objective(*weights, cap, alpha - end_yaws[k], cap, v_goal, a[A_V_MAX]) <= best_score:
+                continue
             clearance, contact, _, _, eyaw = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
                                                            steps_near, steps_count, horizon, a[A_WINDOW_MARGIN],
                                                            True)
             if contact < math.inf:
                 continue  # not admissible (its rollout stopped there)
-            score = objective(a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT],
-                              cap, alpha - eyaw, clearance, v_goal, a[A_V_MAX])
+            score = objective(*weights, cap, alpha - eyaw, clearance, v_goal, a[A_V_MAX])
             if score > best_score:
                 best_score = score
                 best_v = v_goal
