@@ -110,7 +110,7 @@ def every_obstacle(a, start, command, samples, velocities, radii, horizon):
         x, y, yaw, v, w = yielding.rollout_step(a, x, y, yaw, v, w, *command)
         t = k * yielding.ROLLOUT_STEP
         for j in range(radii.shape[0]):
-            reach = yielding.predicted_reach(a, velocities, radii, j, t)
+            reach = yielding.predicted_reach(a, radii[j], float(np.hypot(*velocities[j])), t)
             dx, dy, ex, ey = (x - samples[k - 1, j, 0], y - samples[k - 1, j, 1], x - samples[k - 1, j, 2],
                               y - samples[k - 1, j, 3])
             d2 = min(dx * dx + dy * dy, ex * ex + ey * ey)

@@ -70,11 +70,11 @@ def steer_to(a, yaw, heading):
 
 
 @kernel
-def predicted_reach(a, velocities, radii, j, t):
-    """[m] how near obstacle j's predicted centre the robot's centre may come at t [s]: its radius, the
-    footprint and yield_margin, grown by yield_uncertainty times the distance it walks by then."""
-    return (radii[j] + (a[A_ROBOT_RADIUS] + a[A_YIELD_MARGIN])
-            + a[A_YIELD_UNCERTAINTY] * math.hypot(velocities[j, 0], velocities[j, 1]) * t)
+def predicted_reach(a, radius, speed, t):
+    """[m] how near the predicted centre of an obstacle of `radius` [m] walking at `speed` [m/s] the robot's
+    centre may come at t [s]: its radius, the footprint and yield_margin, grown by yield_uncertainty times
+    the distance it walks by then."""
+    return radius + (a[A_ROBOT_RADIUS] + a[A_YIELD_MARGIN]) + a[A_YIELD_UNCERTAINTY] * speed * t
 
 
 @kernel
@@ -89,14 +89,17 @@ def reach_table(a, x, y, speed_bound, samples, velocities, radii, horizon):
     reach = np.empty((steps, n))
     near = np.empty((steps, n), dtype=np.int64)
     counts = np.zeros(steps, dtype=np.int64)
+    speeds = np.empty(n)
+    for j in range(n):
+        speeds[j] = math.hypot(velocities[j, 0], velocities[j, 1])
     for k in range(1, steps + 1):
         t = k * ROLLOUT_STEP
         travel = speed_bound * t + 1e-6  # the farthest a rollout's centre gets from (x, y) by then
         count = 0
         for j in range(n):
-            r = predicted_reach(a, velocities, radii, j, t)
+            r = predicted_reach(a, radii[j], speeds[j], t)
             reach[k - 1, j] = r
-            if math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) < r + travel:
+            if nearer_distance2(samples, k - 1, j, x, y) < (r + travel) * (r + travel):
                 near[k - 1, count] = j
                 count += 1
         counts[k - 1] = count
@@ -229,6 +232,7 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
     best_v = v_nominal
     best_w = omega_nominal
     best_cost = math.hypot(target_x - ex, target_y - ey)
+    start_distance = math.hypot(target_x - x, target_y - y)
     # two families: hold a yaw rate, or steer to a heading (SPEEDS - 1 forward or backward speeds each)
     for family in range(2):
         for i in range(SPEEDS):
@@ -240,11 +244,17 @@ def yield_command(a, m, x, y, yaw, v_nominal, omega_nominal, target_x, target_y,
                 else:
                     heading = yaw + 2.0 * math.pi * (k + 1) / (HEADINGS + 1)
                     cw = steer_to(a, yaw, heading)
+                turn_cost = OMEGA_WEIGHT * (cw - omega_nominal) ** 2
+                # once a clear one is found, one that cannot end nearer the target (its speed stays between
+                # v0 and cv) cannot win: it is not rolled out
+                travel = max(abs(v0), abs(cv)) * steps * ROLLOUT_STEP + 1e-6
+                if best <= 1e-9 and start_distance - travel + turn_cost >= best_cost:
+                    continue
                 # one deeper than best + 1e-9 is refused below whatever its end: its rollout stops there
                 depth, ex, ey = overlap_along(a, x, y, yaw, v0, w0, cv, cw, heading, samples, reach, weight,
                                               near, counts, best + 1e-9)
                 # among equally safe ones, the one that ends nearest the target (the way on, not the way back)
-                cost = math.hypot(target_x - ex, target_y - ey) + OMEGA_WEIGHT * (cw - omega_nominal) ** 2
+                cost = math.hypot(target_x - ex, target_y - ey) + turn_cost
                 if depth < best - 1e-9 or (depth <= best + 1e-9 and cost < best_cost):
                     best = depth
                     best_v = cv
