@@ -35,6 +35,7 @@ SIZES = (1, 100, 1000, 10000)
 TARGET_STEPS_PER_S = 20_000_000  # issue 19, with the robust planner (issue 7: 5 M)
 TARGET_STUDY_S = 3.0  # issue 19 (issue 7: 60 s)
 TARGET_LIDAR_STEPS_PER_S = 5_000_000  # issue 36
+DENSE_SCENARIO = "suite/people_flow"
 
 
 def batch_rate(scenario, n: int, seconds: float, planner: dict | None = None,
@@ -94,6 +95,12 @@ def main() -> int:
     truth_rate = result[f"batch_robot_steps_per_s_n{SIZES[-1]}_robust"]
     print(f"batch engine N = {SIZES[-1]}, planner robust on the LiDAR: {rate:12,.0f} robot-steps/s"
           f" ({rate / truth_rate:.2f} x on the truth)")
+    # the planner-bound end: the suite's densest layout (8 people between 42 wall discs), the rollouts at
+    # almost every plan
+    dense = load_scenario(find_scenario(DENSE_SCENARIO))
+    rate, steps, wall = batch_rate(dense, 1000, 10.0, {"method": "robust"})
+    result["batch_robot_steps_per_s_n1000_robust_people_flow"] = rate
+    print(f"batch engine N = 1000, planner robust, {DENSE_SCENARIO} (truth): {rate:12,.0f} robot-steps/s")
     study = mc.Study(path, args.study_runs)
     out = Path(os.environ.get("TMPDIR", "/tmp")) / f"twbr-bench-study-{os.getpid()}"
     started = time.perf_counter()

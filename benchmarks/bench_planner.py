@@ -21,10 +21,12 @@ from twbr_planner.planner_params import METHODS
 from twbr_sim.scenario import load_scenario
 from twbr_sim.scenario_files import find_scenario
 
-# the escape's A* runs most in the traps and clutter, the dynamic window's rollouts among walkers (the
-# densest: clutter_movers' 20 discs, crowd_crossing's 12 people, reactive_crowd's)
+# the escape's A* runs most in the traps and clutter, the dynamic window's and the yielding's rollouts among
+# walkers (the densest: people_flow's 8 people between 42 wall discs, clutter_movers' 20 discs,
+# crowd_crossing's 12 people, reactive_crowd's)
 SCENARIOS = ("dynamic_obstacles", "suite/clutter", "suite/corridor", "suite/crossing_sweep", "suite/trap_large",
-             "suite/trap_wedge", "suite/clutter_movers", "suite/crowd_crossing", "suite/reactive_crowd")
+             "suite/trap_wedge", "suite/clutter_movers", "suite/crowd_crossing", "suite/reactive_crowd",
+             "suite/people_flow")
 TARGET_P99_S = 0.002
 
 
