@@ -128,7 +128,7 @@ def test_the_plans_table_skips_only_obstacles_that_change_nothing():
     a = settings(yield_discount=3.0)
     rng = np.random.default_rng(5)
     horizon = 6.5
-    compared = 0
+    compared = skipped = 0
     for _ in range(40):
         n = int(rng.integers(1, 12))
         positions = rng.uniform(-6.0, 6.0, (n, 2))
@@ -138,7 +138,7 @@ def test_the_plans_table_skips_only_obstacles_that_change_nothing():
         samples[:, :, 2:] += rng.normal(0.0, 0.3, samples[:, :, 2:].shape)  # a bent path beside each line
         v0, w0 = rng.uniform(-0.2, 0.5), rng.uniform(-0.5, 0.5)
         reach, near, counts = yielding.reach_table(a, 0.0, 0.0, 0.5, samples, velocities, radii, horizon)
-        assert counts.sum() < counts.size * n  # something is skipped
+        skipped += counts.size * n - counts.sum()
         table = (reach, yielding.discounts(a, counts.shape[0]), near, counts)
         for v_goal, w_goal, heading in ((0.5, 0.0, math.nan), (-0.25, 0.4, math.nan), (0.2, 0.0, 2.0)):
             start, command = (0.0, 0.0, 0.1, v0, w0), (v_goal, w_goal, heading)
@@ -150,7 +150,7 @@ def test_the_plans_table_skips_only_obstacles_that_change_nothing():
             stopped = yielding.overlap_along(a, *start, *command, samples, *table, 0.5 * full)[0]
             assert stopped == full if full == 0.0 else 0.5 * full < stopped <= full
             compared += full > 0.0
-    assert compared >= 20  # most scenes put something in the candidates' way
+    assert compared >= 20 and skipped > 0  # most scenes put something in the way, and some leave some out
 
 
 def test_overtaken_by_a_crowd_it_steps_out_of_their_lane():
