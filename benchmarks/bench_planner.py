@@ -3,7 +3,9 @@ both methods, over whole closed-loop runs of the paper's and the suite's busiest
 
 Each run is the headless closed loop (the nodes' core classes); every planning step is timed with
 perf_counter. Target of issue 16: the robust method plans within 2 ms at p99 (the node adds the
-conversion of its messages, measured separately by bench_graph's navigation graph).
+conversion of its messages, measured separately by bench_graph's navigation graph). planner_node runs its
+cores interpreted unless TWBR_JIT=on (twbr_common.deploy); `TWBR_JIT=off bench_planner.py --methods robust
+--json results/planner_interpreted.json` measures that.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 from results_file import write_results
 
 from twbr_batch.closed_loop import PlannerReference, run_closed_loop
+from twbr_common.jit import jit_mode
 from twbr_planner.planner import ApfPlanner
 from twbr_planner.planner_params import METHODS
 from twbr_sim.scenario import load_scenario
@@ -55,11 +58,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=90.0, help="sim seconds per run")
     ap.add_argument("--json", help="write the figures to this file")
+    ap.add_argument("--methods", default=",".join(METHODS), help="comma-separated (default every method)")
     args = ap.parse_args()
-    result: dict = {}
+    result: dict = {"jit": jit_mode()}  # TWBR_JIT=off: the cores interpreted, as planner_node runs them
     worst = 0.0
     for name in SCENARIOS:
-        for method in METHODS:
+        for method in args.methods.split(","):
             t = step_times(name, method, args.duration)
             p50, p99, top = (float(np.percentile(t, 50)), float(np.percentile(t, 99)), float(t.max()))
             result[f"{name}:{method}"] = {"steps": len(t), "median_s": p50, "p99_s": p99, "max_s": top}
