@@ -3,9 +3,9 @@ both methods, over whole closed-loop runs of the paper's and the suite's busiest
 
 Each run is the headless closed loop (the nodes' core classes); every planning step is timed with
 perf_counter. Target of issue 16: the robust method plans within 2 ms at p99 (the node adds the
-conversion of its messages, measured separately by bench_graph's navigation graph). planner_node runs its
-cores interpreted unless TWBR_JIT=on (twbr_common.deploy); `TWBR_JIT=off bench_planner.py --methods robust
---json results/planner_interpreted.json` measures that.
+conversion of its messages, measured separately by bench_graph's navigation graph). planner_node compiles
+its cores unless TWBR_JIT=off (twbr_planner.planner_main); `TWBR_JIT=off bench_planner.py --methods robust
+--json results/planner_interpreted.json` measures the step so.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def main() -> int:
     ap.add_argument("--json", help="write the figures to this file")
     ap.add_argument("--methods", default=",".join(METHODS), help="comma-separated (default every method)")
     args = ap.parse_args()
-    result: dict = {"jit": jit_mode()}  # TWBR_JIT=off: the cores interpreted, as planner_node runs them
+    result: dict = {"jit": jit_mode()}  # off: the cores interpreted
     worst = 0.0
     for name in SCENARIOS:
         for method in args.methods.split(","):

@@ -82,7 +82,7 @@ def _planner(d: dict[str, Any]) -> str:
 
 
 def _planner_interpreted(d: dict[str, Any]) -> str:
-    """The same, named by its worst layout: the cores as planner_node runs them by default (TWBR_JIT=off)."""
+    """The same, named by its worst layout, the cores interpreted (planner_node with TWBR_JIT=off)."""
     steps = {k.removesuffix(":robust"): v for k, v in d.items() if isinstance(v, dict) and k.endswith(":robust")}
     name, worst = max(steps.items(), key=lambda item: item[1]["p99_s"])
     return (f"robust: median {1e3 * min(r['median_s'] for r in steps.values()):.2f}–"
@@ -158,7 +158,7 @@ ROWS = (
         lambda d: f"real-time factor {d['real_time_factor']:.1f}, latency p99 {ms(d['latency_p99_ms'])}"),
     Row("node start-up (ready to answer) and memory", "startup.json", _startup),
     Row("one planning step (`ApfPlanner.step`, as planner_node calls it)", "planner.json", _planner, "p99 < 2 ms"),
-    Row("the same, interpreted (TWBR_JIT=off: planner_node's default)", "planner_interpreted.json",
+    Row("the same, interpreted (planner_node with TWBR_JIT=off)", "planner_interpreted.json",
         _planner_interpreted, "within the 50 ms period"),
     Row("live viewer, CPU per drawn round", "viewer.json",
         lambda d: (f"viewer {d['viewer_ms_per_round']:.2f} ms + Rerun server {d['server_ms_per_round']:.2f} ms;"

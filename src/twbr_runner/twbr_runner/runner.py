@@ -116,8 +116,9 @@ def compiled_cores() -> dict[str, str]:
     """The environment of the runner's controller and planner: their cores compiled (TWBR_JIT=on), as the
     simulator's are, unless the caller's TWBR_JIT says otherwise.
 
-    On the robot's own computer these nodes run interpreted by default (twbr_common.deploy: 75 MiB each
-    and a quarter-second start). A simulation workstation runs them compiled: the graph's real-time factor
+    On the robot's own computer the controller runs interpreted by default (twbr_common.deploy: 75 MiB and
+    a quarter-second start; the planner compiles by default, twbr_planner.planner_main). A simulation
+    workstation runs them compiled: the graph's real-time factor
     rises by a few per cent (benchmarks/README.md, issue 19 part 7); from numba's cache they start in
     0.7 s, and the first run after a source change compiles them (~3 and ~8 s) before the runner starts
     the simulator. Interpreted or compiled, the kernels compute the same numbers (twbr_batch's
