@@ -8,7 +8,10 @@ over the wall time of the whole call, set-up included. The targets of issue 7: >
 at N = 10000, and the 1000 runs in under 60 s; of issue 16: the same rate with the robust planner; of issue
 19 (the ones printed): >= 20,000,000 robot-steps/s at N = 10000 with the robust planner, and the 1000 runs
 in under 3 s, on 2 cores; of issue 36: >= 5,000,000 robot-steps/s at N = 10000 with the robust planner on
-the LiDAR (a 360-beam scan cast, the tracker and the target filter at 10 Hz in every robot).
+the LiDAR (a 360-beam scan cast, the tracker and the target filter at 10 Hz in every robot); of issue 35:
+>= 15,000,000 robot-steps/s at N = 10000 with the robust planner, the default method. The robust planner
+on suite/people_flow (8 people between 42 wall discs) is measured as well: there the planner, not the
+physics, sets the rate.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ SIZES = (1, 100, 1000, 10000)
 TARGET_STEPS_PER_S = 20_000_000  # issue 19, with the robust planner (issue 7: 5 M)
 TARGET_STUDY_S = 3.0  # issue 19 (issue 7: 60 s)
 TARGET_LIDAR_STEPS_PER_S = 5_000_000  # issue 36
+TARGET_PEOPLE_STEPS_PER_S = 15_000_000  # issue 35, with the robust planner (the default method)
 DENSE_SCENARIO = "suite/people_flow"
 
 
@@ -112,7 +116,8 @@ def main() -> int:
           f" (success {100 * result['study_success_rate']:.1f} %)")
     big = result[f"batch_robot_steps_per_s_n{SIZES[-1]}_robust"]
     print(f"targets: >= {TARGET_STEPS_PER_S:,} robot-steps/s at N = {SIZES[-1]} with the robust planner:"
-          f" {'met' if big >= TARGET_STEPS_PER_S else 'NOT met'};"
+          f" {'met' if big >= TARGET_STEPS_PER_S else 'NOT met'} (issue 35's >= {TARGET_PEOPLE_STEPS_PER_S:,}:"
+          f" {'met' if big >= TARGET_PEOPLE_STEPS_PER_S else 'NOT met'});"
           f" {args.study_runs} runs < {TARGET_STUDY_S:g} s: {'met' if result['study_wall_s'] < TARGET_STUDY_S else 'NOT met'}"
           f" ({os.cpu_count()} cores); on the LiDAR >= {TARGET_LIDAR_STEPS_PER_S:,}:"
           f" {'met' if result[f'batch_robot_steps_per_s_n{SIZES[-1]}_robust_lidar'] >= TARGET_LIDAR_STEPS_PER_S else 'NOT met'}")
