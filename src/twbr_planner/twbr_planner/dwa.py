@@ -43,7 +43,7 @@ from twbr_planner.apf import (
     sampling_start,
     top_speed,
 )
-from twbr_planner.prediction import nearer_distance2, straight_hypotheses
+from twbr_planner.prediction import nearer_distance2, reachable, straight_hypotheses
 
 V_SAMPLES = 7  # forward speeds from 0 to v_max
 OMEGA_SAMPLES = 31  # yaw rates from -max_yaw_rate to max_yaw_rate (0.1 rad/s apart by default: the heading
@@ -109,20 +109,11 @@ def gap_table(a, x, y, v0, samples, radii, beyond):
     whose footprint gap to a rollout from (x, y) [m] starting at v0 [m/s] can be below `beyond` [m] then (on
     their lines or predicted paths, `samples`). The others can change neither a rollout's contact with a
     margin up to `beyond` nor its clearance capped at `beyond`: a plan's table, made once for its grid."""
-    steps = samples.shape[0]
-    n = radii.shape[0]
-    speed_bound = max(abs(v0), a[A_V_MAX])  # a rollout's speed stays between v0 and its goal
-    near = np.empty((steps, n), dtype=np.int64)
-    counts = np.zeros(steps, dtype=np.int64)
-    for k in range(1, steps + 1):
-        travel = speed_bound * k * ROLLOUT_STEP + 1e-6
-        count = 0
-        for j in range(n):
-            if math.sqrt(nearer_distance2(samples, k - 1, j, x, y)) - radii[j] - a[A_ROBOT_RADIUS] < beyond + travel:
-                near[k - 1, count] = j
-                count += 1
-        counts[k - 1] = count
-    return near, counts
+    reach = np.empty((samples.shape[0], radii.shape[0]))
+    for j in range(radii.shape[0]):
+        reach[:, j] = radii[j] + a[A_ROBOT_RADIUS] + beyond
+    # a rollout's speed stays between v0 and its goal
+    return reachable(samples, x, y, reach, max(abs(v0), a[A_V_MAX]), ROLLOUT_STEP)
 
 
 @kernel

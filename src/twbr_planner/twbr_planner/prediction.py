@@ -159,6 +159,27 @@ def nearer_distance2(samples, k, j, x, y):
 
 
 @kernel
+def reachable(samples, x, y, reach, speed_bound, step):
+    """(near (K, n), counts (K,)): at each k `step` [s] of `samples` (hypotheses), the obstacles (indices in
+    order, and their count) whose nearer position can be within reach[k - 1, j] [m] of a robot that left
+    (x, y) [m] no faster than speed_bound [m/s]. Only these can meet a rollout of the plan at that step: the
+    window's and the yielding's rollouts read this table instead of trying every obstacle."""
+    steps, n = reach.shape
+    near = np.empty((steps, n), dtype=np.int64)
+    counts = np.zeros(steps, dtype=np.int64)
+    for k in range(1, steps + 1):
+        travel = speed_bound * k * step + 1e-6  # the farthest the robot gets from (x, y) by then
+        count = 0
+        for j in range(n):
+            r = reach[k - 1, j] + travel
+            if nearer_distance2(samples, k - 1, j, x, y) < r * r:
+                near[k - 1, count] = j
+                count += 1
+        counts[k - 1] = count
+    return near, counts
+
+
+@kernel
 def predicted_position(paths, j, t):
     """(x, y) [m]: obstacle j's predicted position at t [s], between the samples on a straight line, beyond
     the last one along the last sample's step."""

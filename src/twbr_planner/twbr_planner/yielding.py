@@ -44,7 +44,7 @@ from twbr_planner.apf import (
     R_LAST_V,
 )
 from twbr_planner.dwa import drive
-from twbr_planner.prediction import MOVING, hypotheses, nearer_distance2
+from twbr_planner.prediction import MOVING, hypotheses, nearer_distance2, reachable
 
 ROLLOUT_STEP = 0.25  # [s]
 SPEEDS = 7  # candidate speeds, from -BACK_SHARE * v_max to v_max
@@ -87,22 +87,11 @@ def reach_table(a, x, y, speed_bound, samples, velocities, radii, horizon):
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     n = radii.shape[0]
     reach = np.empty((steps, n))
-    near = np.empty((steps, n), dtype=np.int64)
-    counts = np.zeros(steps, dtype=np.int64)
-    speeds = np.empty(n)
     for j in range(n):
-        speeds[j] = math.hypot(velocities[j, 0], velocities[j, 1])
-    for k in range(1, steps + 1):
-        t = k * ROLLOUT_STEP
-        travel = speed_bound * t + 1e-6  # the farthest a rollout's centre gets from (x, y) by then
-        count = 0
-        for j in range(n):
-            r = predicted_reach(a, radii[j], speeds[j], t)
-            reach[k - 1, j] = r
-            if nearer_distance2(samples, k - 1, j, x, y) < (r + travel) * (r + travel):
-                near[k - 1, count] = j
-                count += 1
-        counts[k - 1] = count
+        speed = math.hypot(velocities[j, 0], velocities[j, 1])
+        for k in range(1, steps + 1):
+            reach[k - 1, j] = predicted_reach(a, radii[j], speed, k * ROLLOUT_STEP)
+    near, counts = reachable(samples, x, y, reach, speed_bound, ROLLOUT_STEP)
     return reach, near, counts
 
 
