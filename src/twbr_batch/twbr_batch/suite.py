@@ -170,8 +170,10 @@ def chosen_scenarios(text: str) -> list[Path]:
 def robot_limits(planner: Mapping[str, Any]) -> Limits:
     """What the robot is allowed to do, as the run's planner was: the bounds of the avoidability check."""
     braking = planner["max_acceleration"] if planner["method"] == "paper" else planner["brake_deceleration"]
-    return Limits(planner["v_max"], planner["max_acceleration"], braking, planner["max_yaw_rate"],
-                  planner["max_yaw_acceleration"])
+    # the robust method may speed up at window_acceleration among walkers: so may the escapes that judge it
+    acceleration = max(planner["max_acceleration"], planner["window_acceleration"] if planner["method"] == "robust"
+                       else 0.0)
+    return Limits(planner["v_max"], acceleration, braking, planner["max_yaw_rate"], planner["max_yaw_acceleration"])
 
 
 def split_variant(variant: Mapping[str, Any]) -> tuple[dict[str, Any], str | None]:

@@ -148,6 +148,15 @@ def test_the_robust_speed_brakes_no_harder_than_brake_deceleration_and_rises_at_
     assert drops.max() > ROBUST["max_acceleration"] * 0.05  # it does brake harder than it accelerates
 
 
+def test_with_a_walker_in_reach_the_robust_speed_rises_at_window_acceleration():
+    far = Target(30.0, 0.0, 0.0, 0.0)
+    behind = Obstacles.of([(1, -2.5, 0.8, 0.3, 0.5, 0.0)])  # a walker overtaking beside the robot's line
+    for obstacles, rate in ((behind, ROBUST["window_acceleration"]), (Obstacles.empty(), ROBUST["max_acceleration"])):
+        planner = ApfPlanner(ROBUST)
+        v = [planner.step(0.05 * k, 0.0, 0.0, 0.0, 0.0, far, obstacles).velocity_cmd for k in range(40)]
+        assert np.diff(v).max() == pytest.approx(rate * 0.05)
+
+
 def test_the_speed_can_stop_before_what_is_ahead_or_turned_to_but_not_for_a_disc_beside_the_way():
     """speed_policy: at most sqrt(2 b room), room the clearance along the heading and along the direction
     the robot turns to; a disc beside the way (0.3 m off the footprint) leaves v_max."""

@@ -7,7 +7,7 @@ import numpy as np
 from unicycle import drive as drive_unicycle
 
 from twbr_planner import window
-from twbr_planner.apf import N_MEMORY, R_LAST_V, Mode
+from twbr_planner.apf import A_MAX_ACCELERATION, N_MEMORY, R_LAST_V, Mode
 from twbr_planner.apf import settings_vector as vector
 from twbr_planner.dwa import ROLLOUT_STEP, rollout
 from twbr_planner.planner_params import resolve
@@ -136,3 +136,16 @@ def test_the_obstacles_out_of_reach_change_no_rollout():
                     if not until_contact or every[1] == math.inf:
                         assert min(stepped[0], cap) == min(every[0], cap)
     assert left_out > 0
+
+
+def test_among_walkers_the_speed_may_rise_at_window_acceleration_and_elsewhere_at_max_acceleration():
+    cfg = settings()
+    a = vector(cfg)
+    walker = world((-2.0, 0.5, 0.6, 0.0, 0.3))  # behind, overtaking: within reach over the horizon
+    disc = world((1.5, 0.0, 0.0, 0.0, 0.4))
+    limited = window.window_limits(a, 0.0, 0.0, *walker, False)
+    assert limited[A_MAX_ACCELERATION] == cfg["window_acceleration"] > cfg["max_acceleration"]
+    assert a[A_MAX_ACCELERATION] == cfg["max_acceleration"]  # the settings themselves are left as they are
+    for b in (window.window_limits(a, 0.0, 0.0, *disc, False), window.window_limits(a, 0.0, 0.0, *walker, True),
+              window.window_limits(vector(settings(window_acceleration=0.0)), 0.0, 0.0, *walker, False)):
+        assert b[A_MAX_ACCELERATION] == cfg["max_acceleration"]

@@ -132,6 +132,10 @@ APF_SPECS: tuple[ParamSpec, ...] = (
     ParamSpec("window_min_speed", 0.3, "robust: only an obstacle this fast starts the window (people walk at"
               " 0.3 m/s or more; a LiDAR track of a disc seen in part may seem to move at 0.1-0.3 m/s)", "m/s",
               0.0, 10.0),
+    ParamSpec("window_acceleration", 0.12, "robust: while the window acts (a walker-fast obstacle within reach) the"
+              " speed may rise this fast, and the window's and the yielding's rollouts assume it: a robot that"
+              " accelerates at max_acceleration cannot get out of a walker's way (0: max_acceleration)", "m/s²",
+              0.0, 100.0),
     ParamSpec("window_margin", 0.15, "robust: a window rollout that comes this close to an obstacle is not"
               " admissible", "m", 0.0, 10.0),
     ParamSpec("window_heading_weight", 1.0, "robust: the window's weight of the heading to the field's direction"
@@ -191,6 +195,7 @@ def check_within_robot(cfg: dict, limits: RobotLimits) -> dict:
     at_most(cfg, "max_yaw_rate", limits, "top_yaw_rate", "rad/s")
     at_most(cfg, "max_acceleration", limits, "max_acceleration", "m/s²")
     at_most(cfg, "brake_deceleration", limits, "max_acceleration", "m/s²")
+    at_most(cfg, "window_acceleration", limits, "max_acceleration", "m/s²")
     at_most(cfg, "max_yaw_acceleration", limits, "max_yaw_acceleration", "rad/s²")
     return cfg
 

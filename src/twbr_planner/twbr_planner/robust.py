@@ -59,7 +59,7 @@ from twbr_planner.field import field
 from twbr_planner.prediction import predict_paths
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
-from twbr_planner.window import window_acts, window_command
+from twbr_planner.window import window_acts, window_command, window_limits
 from twbr_planner.yielding import yield_acts, yield_command
 
 
@@ -114,6 +114,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     # look-ahead sees coming, 6. the safety filter, then the acceleration limits
     windowed = False
     paths = predicted(a, x, y, positions, velocities, radii, arrived)
+    a = window_limits(a, x, y, positions, velocities, radii, arrived)
     # an obstacle faster than the robot being evaded is left to the evasion: no rollout outruns it
     outrun = threat >= 0 and math.hypot(velocities[threat, 0], velocities[threat, 1]) > a[A_V_MAX]
     if not arrived and not outrun:

@@ -21,7 +21,9 @@ import numpy as np
 
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
+    A_MAX_ACCELERATION,
     A_V_MAX,
+    A_WINDOW_ACCELERATION,
     A_WINDOW_CLEARANCE_CAP,
     A_WINDOW_CLEARANCE_WEIGHT,
     A_WINDOW_HEADING_WEIGHT,
@@ -54,6 +56,20 @@ def window_acts(a, x, y, positions, velocities, radii):
     horizon = a[A_WINDOW_HORIZON]
     return horizon > 0.0 and in_reach(a, x, y, positions, velocities, radii, horizon,
                                       max(a[A_WINDOW_MIN_SPEED], MOVING), 0.0, 0.0)
+
+
+@kernel
+def window_limits(a, x, y, positions, velocities, radii, arrived):
+    """The settings the rest of the step plans and limits its command with: while the window acts the speed
+    may rise at window_acceleration (its rollouts, the yielding's and the rate limits all read
+    max_acceleration from them); else `a` itself. A person not looking out walks at 0.5 m/s into a robot
+    that needs 10 s to reach 0.6 m/s at max_acceleration (benchmarks/HISTORY.md, twenty-eighth session)."""
+    if arrived or a[A_WINDOW_ACCELERATION] <= a[A_MAX_ACCELERATION] or not window_acts(a, x, y, positions,
+                                                                                          velocities, radii):
+        return a
+    b = a.copy()
+    b[A_MAX_ACCELERATION] = a[A_WINDOW_ACCELERATION]
+    return b
 
 
 @kernel

@@ -59,6 +59,7 @@ def test_planner_settings_past_the_robot_are_refused_naming_the_bound():
     for name, value, text in (("v_max", 10.0, "at most 2.4 m/s, the robot's top speed"),
                               ("max_acceleration", 100.0, "largest acceleration"),
                               ("brake_deceleration", 50.0, "largest acceleration"),
+                              ("window_acceleration", 50.0, "largest acceleration"),
                               ("max_yaw_rate", 20.0, "at most 12 rad/s"),
                               ("max_yaw_acceleration", 1000.0, "largest yaw acceleration")):
         with pytest.raises(ConfigError, match=f"'{name}' = .*{text}.*robot.yaml"):
