@@ -9,7 +9,7 @@ from unicycle import drive as drive_unicycle
 from twbr_planner import window
 from twbr_planner.apf import A_MAX_ACCELERATION, N_MEMORY, R_LAST_V, Mode
 from twbr_planner.apf import settings_vector as vector
-from twbr_planner.dwa import ROLLOUT_STEP, rollout
+from twbr_planner.dwa import ROLLOUT_STEP, every_obstacle, rollout, rollout_among
 from twbr_planner.planner_params import resolve
 from twbr_planner.prediction import predict_paths, straight_hypotheses
 
@@ -35,8 +35,8 @@ def command(cfg, obstacles, v0=0.4, alpha=0.0, v_nominal=0.6, omega_nominal=0.0)
     m[R_LAST_V] = v0
     paths = predict_paths(*obstacles, cfg["window_horizon"], cfg["prediction_strength"], cfg["prediction_range"],
                           cfg["prediction_relaxation_time"])
-    return window.window_command(vector(cfg), m, 0.0, 0.0, 0.0, v_nominal, omega_nominal, alpha, 10.0, False,
-                                 *obstacles, paths)
+    return window.window_command(vector(cfg), m, 0.0, 0.0, 0.0, v_nominal, omega_nominal, alpha, 10.0, 0.0, 10.0,
+                                 False, *obstacles, paths)
 
 
 def test_without_a_mover_in_reach_the_field_drives():
@@ -149,3 +149,30 @@ def test_among_walkers_the_speed_may_rise_at_window_acceleration_and_elsewhere_a
     for b in (window.window_limits(a, 0.0, 0.0, *disc, False), window.window_limits(a, 0.0, 0.0, *walker, True),
               window.window_limits(vector(settings(window_acceleration=0.0)), 0.0, 0.0, *walker, False)):
         assert b[A_MAX_ACCELERATION] == cfg["max_acceleration"]
+
+
+def test_near_a_static_target_it_picks_the_rollout_that_comes_nearest_to_it_not_one_along_the_start_direction():
+    cfg = settings()
+    a = vector(cfg)
+    walker = world((-2.0, -2.0, 0.5, 0.0, 0.3))  # in reach, clear of every rollout: the window drives
+    paths = predict_paths(*walker, cfg["window_horizon"], cfg["prediction_strength"], cfg["prediction_range"],
+                          cfg["prediction_relaxation_time"])
+    samples = lines(*walker)
+    near, counts = every_obstacle(samples, walker[2])
+
+    def closest_approach(target, moving_target):
+        """How near the chosen rollout comes to a target on the robot's left, 0.85 m away (the robot at 0.5
+        m/s, heading past it)."""
+        m = np.zeros(N_MEMORY)
+        m[R_LAST_V] = 0.5
+        distance = math.hypot(*target)
+        v, omega, windowed = window.window_command(a, m, 0.0, 0.0, 0.0, 0.5, 0.0, math.atan2(target[1], target[0]),
+                                                   *target, distance, moving_target, *walker, paths)
+        assert windowed
+        return rollout_among(a, 0.0, 0.0, 0.0, 0.5, 0.0, v, omega, samples, walker[2], near, counts,
+                             cfg["window_horizon"], cfg["window_margin"], False, *target)[5]
+
+    target = (0.3, 0.8)
+    # scored by the field's direction at the start (as for a moving target), its best rollout circles past
+    assert closest_approach(target, True) > cfg["capture_radius"] + 0.15
+    assert closest_approach(target, False) <= cfg["capture_radius"]

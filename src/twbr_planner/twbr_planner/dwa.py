@@ -128,18 +128,20 @@ def every_obstacle(samples, radii):
 
 @kernel
 def rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, counts, horizon, margin,
-                  until_contact):
+                  until_contact, goal_x=0.0, goal_y=0.0):
     """rollout against the obstacles of each step's row of (near, counts) (gap_table); with `until_contact`
     it stops at the first contact (for a caller that refuses any rollout with one), its clearance and end
-    pose then those of that instant."""
+    pose then those of that instant. Also returns its closest approach [m] to (goal_x, goal_y)."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
     clearance = math.inf
     contact = math.inf
     robot_radius = a[A_ROBOT_RADIUS]
+    closest = math.hypot(goal_x - x, goal_y - y)
     for k in range(1, steps + 1):
         x, y, yaw, v, w = drive(a, x, y, yaw, v, w, v_goal, w_goal, ROLLOUT_STEP)
+        closest = min(closest, math.hypot(goal_x - x, goal_y - y))
         t = k * ROLLOUT_STEP
         for c in range(counts[k - 1]):
             j = near[k - 1, c]
@@ -149,7 +151,7 @@ def rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, co
                 contact = t
         if until_contact and contact < math.inf:
             break
-    return clearance, contact, x, y, yaw
+    return clearance, contact, x, y, yaw, closest
 
 
 @kernel
@@ -160,7 +162,7 @@ def rollout(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, horizon, margi
     obstacles) and when it first falls below `margin` [m] (inf never)."""
     near, counts = every_obstacle(samples, radii)
     return rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, counts, horizon, margin,
-                         False)
+                         False)[:5]
 
 
 @kernel
@@ -196,9 +198,9 @@ def dwa_step(a, m, ring, out, stamp, x, y, yaw, speed, target_x, target_y, targe
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
-            clearance, contact, ex, ey, eyaw = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
-                                                             steps_near, steps_count, a[A_DWA_HORIZON],
-                                                             a[A_SAFETY_MARGIN], False)
+            clearance, contact, ex, ey, eyaw, _ = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples,
+                                                                near_r, steps_near, steps_count, a[A_DWA_HORIZON],
+                                                                a[A_SAFETY_MARGIN], False)
             score = objective(a[A_DWA_HEADING_WEIGHT], a[A_DWA_CLEARANCE_WEIGHT], a[A_DWA_SPEED_WEIGHT], cap,
                               math.atan2(target_y - ey, target_x - ex) - eyaw, clearance, v_goal, a[A_V_MAX])
             # admissible first (no contact within the horizon), then the latest contact, then the score

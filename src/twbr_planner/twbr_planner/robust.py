@@ -118,8 +118,8 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     # an obstacle faster than the robot being evaded is left to the evasion: no rollout outruns it
     outrun = threat >= 0 and math.hypot(velocities[threat, 0], velocities[threat, 1]) > a[A_V_MAX]
     if not arrived and not outrun:
-        v, omega, windowed = window_command(a, m, x, y, yaw, v, omega, alpha, distance, moving_target, positions,
-                                            velocities, radii, paths)
+        v, omega, windowed = window_command(a, m, x, y, yaw, v, omega, alpha, target_x, target_y, distance,
+                                            moving_target, positions, velocities, radii, paths)
     if not arrived:
         v, omega, yielding = yield_command(a, m, x, y, yaw, v, omega, target_x, target_y, positions, velocities,
                                            radii, paths)

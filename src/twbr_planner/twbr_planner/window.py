@@ -21,6 +21,7 @@ import numpy as np
 
 from twbr_common.jit import kernel
 from twbr_planner.apf import (
+    A_CAPTURE_RADIUS,
     A_MAX_ACCELERATION,
     A_V_MAX,
     A_WINDOW_ACCELERATION,
@@ -73,10 +74,24 @@ def window_limits(a, x, y, positions, velocities, radii, arrived):
 
 
 @kernel
-def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, moving_target, positions,
-                   velocities, radii, paths):
+def heading_error(a, alpha, eyaw, closest, distance, arriving):
+    """[rad] a rollout's heading term: its end heading against the field's direction `alpha`; while
+    `arriving`, how little of the way into the capture radius its closest approach to the target [m] leaves
+    (pi: none of it, 0: it arrives)."""
+    if not arriving:
+        return alpha - eyaw
+    capture = a[A_CAPTURE_RADIUS]
+    return math.pi * min(max((closest - capture) / max(distance - capture, 1e-9), 0.0), 1.0)
+
+
+@kernel
+def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, target_x, target_y, distance, moving_target,
+                   positions, velocities, radii, paths):
     """(v, omega, windowed): the best-scoring admissible rollout towards the field's direction `alpha` [rad]
-    while a moving obstacle is in reach; else (or with none admissible) the field's command."""
+    while a moving obstacle is in reach; else (or with none admissible) the field's command. A static target
+    within a rollout's reach is scored by how near each rollout comes to it: the direction at the start says
+    nothing of that, and rollouts scored by it circle the target among walkers (people_flow,
+    benchmarks/HISTORY.md)."""
     if not window_acts(a, x, y, positions, velocities, radii):
         return v_nominal, omega_nominal, False
     horizon = a[A_WINDOW_HORIZON]
@@ -84,6 +99,7 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     w0 = m[R_LAST_OMEGA]
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = top_speed(a, distance, moving_target)
+    arriving = not moving_target and distance <= v_top * horizon
     beyond = max(cap, a[A_WINDOW_MARGIN])
     near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond)
     near_r = radii[near]
@@ -94,21 +110,23 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, distance, m
     best_w = omega_nominal
     weights = (a[A_WINDOW_HEADING_WEIGHT], a[A_WINDOW_CLEARANCE_WEIGHT], a[A_WINDOW_SPEED_WEIGHT])
     # a rollout's end heading depends on its yaw rate alone: the most a candidate can score is at its
-    # heading with the clearance at the cap, and one that cannot beat the best is not rolled out
+    # heading (arriving: at none off) with the clearance at the cap, and one that cannot beat the best is
+    # not rolled out
     end_yaws = np.empty(OMEGA_SAMPLES)
     for k in range(OMEGA_SAMPLES):
-        end_yaws[k] = end_yaw(a, yaw, w0, candidate(a, v_top, 0, k)[1], horizon)
+        end_yaws[k] = alpha if arriving else end_yaw(a, yaw, w0, candidate(a, v_top, 0, k)[1], horizon)
     for i in range(V_SAMPLES):
         for k in range(OMEGA_SAMPLES):
             v_goal, w_goal = candidate(a, v_top, i, k)
             if objective(*weights, cap, alpha - end_yaws[k], cap, v_goal, a[A_V_MAX]) <= best_score:
                 continue
-            clearance, contact, _, _, eyaw = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, near_r,
-                                                           steps_near, steps_count, horizon, a[A_WINDOW_MARGIN],
-                                                           True)
+            clearance, contact, _, _, eyaw, closest = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples,
+                                                                    near_r, steps_near, steps_count, horizon,
+                                                                    a[A_WINDOW_MARGIN], True, target_x, target_y)
             if contact < math.inf:
                 continue  # not admissible (its rollout stopped there)
-            score = objective(*weights, cap, alpha - eyaw, clearance, v_goal, a[A_V_MAX])
+            score = objective(*weights, cap, heading_error(a, alpha, eyaw, closest, distance, arriving), clearance,
+                              v_goal, a[A_V_MAX])
             if score > best_score:
                 best_score = score
                 best_v = v_goal
