@@ -176,3 +176,33 @@ def test_near_a_static_target_it_picks_the_rollout_that_comes_nearest_to_it_not_
     # scored by the field's direction at the start (as for a moving target), its best rollout circles past
     assert closest_approach(target, True) > cfg["capture_radius"] + 0.15
     assert closest_approach(target, False) <= cfg["capture_radius"]
+
+
+def test_a_threat_walking_along_the_way_leaves_the_window_the_fields_own_direction():
+    cfg = settings()
+    a = vector(cfg)
+    pushed = 1.2  # the field's direction with the evasion's push, to the left of the field's own (+x)
+    for velocity, own in (((-0.5, 0.05), True),  # towards the robot, nearly along its way
+                          ((0.9, -0.1), True),  # after it, faster
+                          ((0.05, 0.5), False),  # across the way: the push stands
+                          ((-0.4, 0.4), False)):  # 45 degrees off the way
+        velocities = np.array([velocity])
+        got = window.window_direction(a, pushed, 2.0, 0.0, 0, velocities)
+        assert got == (0.0 if own else pushed)
+    assert window.window_direction(a, pushed, 2.0, 0.0, -1, np.zeros((1, 2))) == pushed  # no threat
+    off = vector(settings(window_lane_angle=0.0))
+    assert window.window_direction(off, pushed, 2.0, 0.0, 0, np.array([[-0.5, 0.0]])) == pushed
+
+
+def test_a_walker_coming_head_on_is_passed_clear_without_the_evasions_push():
+    """The window alone keeps the robot clear of a walker on its line (one that does not give way, here),
+    and steps less far off its way than with the push."""
+    margin = settings()["window_margin"] - 0.05  # less a sample's travel: the unicycle samples at 20 Hz
+    detours = []
+    for lane_angle in (0.0, settings()["window_lane_angle"]):
+        poses, outputs, clearance = drive_unicycle("robust", (12.0, 0.0), [(1, 9.0, 0.05, 0.3, -0.5, 0.0)],
+                                                   seconds=45.0, window_lane_angle=lane_angle)
+        assert outputs[-1].mode is Mode.ARRIVED
+        assert clearance > margin
+        detours.append(np.abs(poses[:, 1]).max())
+    assert detours[1] < detours[0] - 0.2

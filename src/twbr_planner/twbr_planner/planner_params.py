@@ -136,6 +136,10 @@ APF_SPECS: tuple[ParamSpec, ...] = (
               " speed may rise this fast, and the window's and the yielding's rollouts assume it: a robot that"
               " accelerates at max_acceleration cannot get out of a walker's way (0: max_acceleration)", "m/s²",
               0.0, 100.0),
+    ParamSpec("window_lane_angle", 0.52, "robust: a threat walking within this angle of the robot's way (towards it"
+              " or after it) leaves the window to drive the field's own direction, not the evasion's push across"
+              " the way: people in a flow give way, and the window's rollouts keep clear of them (0: always the"
+              " push)", "rad", 0.0, 1.5708),
     ParamSpec("window_margin", 0.15, "robust: a window rollout that comes this close to an obstacle is not"
               " admissible", "m", 0.0, 10.0),
     ParamSpec("window_heading_weight", 1.0, "robust: the window's weight of the heading to the field's direction"

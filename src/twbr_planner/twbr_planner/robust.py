@@ -59,7 +59,7 @@ from twbr_planner.field import field
 from twbr_planner.prediction import predict_paths
 from twbr_planner.safety_filter import safety_filter
 from twbr_planner.speed_policy import speed, steer
-from twbr_planner.window import window_acts, window_command, window_limits
+from twbr_planner.window import window_acts, window_command, window_direction, window_limits
 from twbr_planner.yielding import yield_acts, yield_command
 
 
@@ -96,6 +96,7 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
                                               moving)
     if escaping:
         mode = ESCAPING
+    field_x, field_y = total_x, total_y
     total_x, total_y, threat = evade(a, m, x, y, vx, vy, total_x, total_y, positions, velocities, radii, moving)
     if threat >= 0:
         mode = EVADING
@@ -118,8 +119,10 @@ def robust_step(a, m, ring, out, stamp, x, y, yaw, speed_now, target_x, target_y
     # an obstacle faster than the robot being evaded is left to the evasion: no rollout outruns it
     outrun = threat >= 0 and math.hypot(velocities[threat, 0], velocities[threat, 1]) > a[A_V_MAX]
     if not arrived and not outrun:
-        v, omega, windowed = window_command(a, m, x, y, yaw, v, omega, alpha, target_x, target_y, distance,
-                                            moving_target, positions, velocities, radii, paths)
+        v, omega, windowed = window_command(a, m, x, y, yaw, v, omega,
+                                            window_direction(a, alpha, field_x, field_y, threat, velocities),
+                                            target_x, target_y, distance, moving_target, positions, velocities,
+                                            radii, paths)
     if not arrived:
         v, omega, yielding = yield_command(a, m, x, y, yaw, v, omega, target_x, target_y, positions, velocities,
                                            radii, paths)

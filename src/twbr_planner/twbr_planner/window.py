@@ -29,6 +29,7 @@ from twbr_planner.apf import (
     A_WINDOW_CLEARANCE_WEIGHT,
     A_WINDOW_HEADING_WEIGHT,
     A_WINDOW_HORIZON,
+    A_WINDOW_LANE_ANGLE,
     A_WINDOW_MARGIN,
     A_WINDOW_MIN_SPEED,
     A_WINDOW_SPEED_WEIGHT,
@@ -71,6 +72,24 @@ def window_limits(a, x, y, positions, velocities, radii, arrived):
     b = a.copy()
     b[A_MAX_ACCELERATION] = a[A_WINDOW_ACCELERATION]
     return b
+
+
+@kernel
+def window_direction(a, alpha, field_x, field_y, threat, velocities):
+    """[rad] the direction the window scores its rollouts' headings against: the field's with the evasion's
+    push (`alpha`), or without it (field_x, field_y: the field before the evasion) while the threat walks
+    within window_lane_angle of that way, towards the robot or after it. The push steps the robot across the
+    way; in a flow of people it crossed their lanes one after another and backed away from people who would
+    have given way (people_flow: 1.27x the dynamic window's median time; benchmarks/HISTORY.md,
+    twenty-ninth session). Walkers crossing the way keep the push: without it clutter_movers lost 9
+    points."""
+    if threat < 0:
+        return alpha
+    field = math.hypot(field_x, field_y) * math.hypot(velocities[threat, 0], velocities[threat, 1])
+    if field > 0.0 and abs(field_x * velocities[threat, 1] - field_y * velocities[threat, 0]) < (
+            math.sin(a[A_WINDOW_LANE_ANGLE]) * field):
+        return math.atan2(field_y, field_x)
+    return alpha
 
 
 @kernel
