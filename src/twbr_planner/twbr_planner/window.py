@@ -85,9 +85,11 @@ def window_direction(a, alpha, field_x, field_y, threat, velocities):
     points."""
     if threat < 0:
         return alpha
-    field = math.hypot(field_x, field_y) * math.hypot(velocities[threat, 0], velocities[threat, 1])
-    if field > 0.0 and abs(field_x * velocities[threat, 1] - field_y * velocities[threat, 0]) < (
-            math.sin(a[A_WINDOW_LANE_ANGLE]) * field):
+    walk_x = velocities[threat, 0]
+    walk_y = velocities[threat, 1]
+    norms = math.hypot(field_x, field_y) * math.hypot(walk_x, walk_y)
+    across = abs(field_x * walk_y - field_y * walk_x)  # norms x |sin| of the angle between walk and way
+    if norms > 0.0 and across < math.sin(a[A_WINDOW_LANE_ANGLE]) * norms:
         return math.atan2(field_y, field_x)
     return alpha
 
