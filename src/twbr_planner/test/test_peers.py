@@ -84,3 +84,20 @@ def test_dwa_prefers_an_admissible_rollout_and_the_one_that_touches_last_when_no
     out = planner.step(0.0, 0.0, 0.0, 0.0, 0.0, Target(6.0, 0.0, 0.0, 0.0), Obstacles.of(
         [(i, x, y, r) for i, ((x, y), r) in enumerate(zip(wall, radii, strict=True))]))
     assert out.velocity_cmd <= g["max_acceleration"] * PERIOD + 1e-12  # it does not drive on into the wall
+
+
+def test_a_rollout_s_closest_approach_is_to_the_goal_it_is_given_and_none_without():
+    """The window reads a rollout's closest approach to a static target it is arriving at; the dwa peer never:
+    without a goal the rollout computes none (a square root a step cost the peer a third of its rate in the
+    batch engine, benchmarks/HISTORY.md, thirtieth session), and the rest of what it returns is the same."""
+    a = settings_vector(resolve({"method": "dwa"}))
+    samples = straight_hypotheses(np.array([[3.0, 2.0]]), np.zeros((1, 2)), 3.0, dwa.ROLLOUT_STEP)
+    radii = np.array([0.3])
+    near, counts = dwa.every_obstacle(samples, radii)
+    args = (a, 0.0, 0.0, 0.0, 0.5, 0.0, 0.5, 0.0, samples, radii, near, counts, 3.0, 0.05, False)
+    plain = dwa.rollout_among(*args)
+    aimed = dwa.rollout_among(*args, 1.0, 0.5)
+    assert plain[5] == math.inf
+    assert plain[:5] == aimed[:5]
+    # straight along x at 0.5 m/s (from 0.5 m/s): it passes (1.0, 0.5) 0.5 m off, to a step's resolution
+    assert aimed[5] == pytest.approx(0.5, abs=0.5 * dwa.ROLLOUT_STEP)

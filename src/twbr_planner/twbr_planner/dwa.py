@@ -128,20 +128,23 @@ def every_obstacle(samples, radii):
 
 @kernel
 def rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples, radii, near, counts, horizon, margin,
-                  until_contact, goal_x=0.0, goal_y=0.0):
+                  until_contact, goal_x=math.nan, goal_y=math.nan):
     """rollout against the obstacles of each step's row of (near, counts) (gap_table); with `until_contact`
     it stops at the first contact (for a caller that refuses any rollout with one), its clearance and end
-    pose then those of that instant. Also returns its closest approach [m] to (goal_x, goal_y)."""
+    pose then those of that instant. Also returns its closest approach [m] to (goal_x, goal_y), if given
+    (else inf: most callers do not read it, and it costs a square root a step)."""
     steps = max(1, int(horizon / ROLLOUT_STEP + 0.5))
     v = v0
     w = w0
     clearance = math.inf
     contact = math.inf
     robot_radius = a[A_ROBOT_RADIUS]
-    closest = math.hypot(goal_x - x, goal_y - y)
+    toward_goal = not math.isnan(goal_x)
+    closest = math.hypot(goal_x - x, goal_y - y) if toward_goal else math.inf
     for k in range(1, steps + 1):
         x, y, yaw, v, w = drive(a, x, y, yaw, v, w, v_goal, w_goal, ROLLOUT_STEP)
-        closest = min(closest, math.hypot(goal_x - x, goal_y - y))
+        if toward_goal:
+            closest = min(closest, math.hypot(goal_x - x, goal_y - y))
         t = k * ROLLOUT_STEP
         for c in range(counts[k - 1]):
             j = near[k - 1, c]

@@ -121,6 +121,8 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, target_x, t
     cap = a[A_WINDOW_CLEARANCE_CAP]
     v_top = top_speed(a, distance, moving_target)
     arriving = not moving_target and distance <= v_top * horizon
+    goal_x = target_x if arriving else math.nan  # the rollouts' closest approach to it is read only then
+    goal_y = target_y if arriving else math.nan
     beyond = max(cap, a[A_WINDOW_MARGIN])
     near = within_reach(a, x, y, v0, positions, velocities, radii, horizon, beyond)
     near_r = radii[near]
@@ -143,7 +145,7 @@ def window_command(a, m, x, y, yaw, v_nominal, omega_nominal, alpha, target_x, t
                 continue
             clearance, contact, _, _, eyaw, closest = rollout_among(a, x, y, yaw, v0, w0, v_goal, w_goal, samples,
                                                                     near_r, steps_near, steps_count, horizon,
-                                                                    a[A_WINDOW_MARGIN], True, target_x, target_y)
+                                                                    a[A_WINDOW_MARGIN], True, goal_x, goal_y)
             if contact < math.inf:
                 continue  # not admissible (its rollout stopped there)
             score = objective(*weights, cap, heading_error(a, alpha, eyaw, closest, distance, arriving), clearance,
